@@ -3,3 +3,9 @@
 pub mod rotation;
 pub mod scalar;
 pub mod vec3;
+pub mod model;
+pub mod time_function;
+pub mod elements;
+pub mod joints;
+pub mod state;
+pub mod system;

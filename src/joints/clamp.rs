@@ -1,0 +1,55 @@
+//! Clamp: a rigid connection, coincident points and identical triads (6 constraints:
+//! `e₂ᵏ·e₃ˡ = e₃ᵏ·e₁ˡ = e₁ᵏ·e₂ˡ = 0`, each a universal-joint constraint, eqs. 11–16).
+//! Also used internally to carry a rigid body whose centre of mass is offset from its node.
+
+use super::kinematics::*;
+use super::{Attachment, ConstraintLaw, JointState, Rows};
+use crate::scalar::Real;
+
+const PAIRS: [(usize, usize); 3] = [(1, 2), (2, 0), (0, 1)];
+
+#[derive(Clone, Debug)]
+pub struct Clamp {
+    pub at: [Attachment; 2],
+}
+
+impl ConstraintLaw for Clamp {
+    fn n_rows(&self) -> usize {
+        6
+    }
+    fn value<T: Real>(&self, s: &JointState<T>, out: &mut [T]) {
+        points_value(s, &self.at, out);
+        for (r, (a, b)) in PAIRS.iter().enumerate() {
+            out[3 + r] = dot_value(s, &self.at, *a, *b);
+        }
+    }
+    fn discrete_gradient<T: Real>(&self, si: &JointState<T>, sf: &JointState<T>, out: &mut Rows<T>) {
+        points_gradient(si, sf, &self.at, out, 0);
+        for (r, (a, b)) in PAIRS.iter().enumerate() {
+            add_rotation_pair(&mut out[3 + r], dot_mid(si, sf, &self.at, *a, *b).0, T::one());
+        }
+    }
+    fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
+        points_rate(s, &self.at, out, 0);
+        for (r, (a, b)) in PAIRS.iter().enumerate() {
+            add_rotation_pair(&mut out[3 + r], dot_h(s, &self.at, *a, *b), T::one());
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::joints::law_tests::assert_law;
+    use crate::rotation::exp_map;
+    use crate::vec3::V3;
+
+    #[test]
+    fn discrete_gradient_exact_and_rate_consistent() {
+        let at = [
+            Attachment { offset: V3([0.3, -0.2, 0.5]), triad: exp_map(&V3([0.1, 0.2, 0.3])) },
+            Attachment { offset: V3([-0.4, 0.1, 0.2]), triad: exp_map(&V3([0.0, -0.5, 0.3])) },
+        ];
+        assert_law(&Clamp { at });
+    }
+}

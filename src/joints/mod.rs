@@ -1,0 +1,526 @@
+//! Joints: holonomic constraints enforced with Lagrange multipliers.
+//!
+//! Each joint type is a [`ConstraintLaw`]: its constraint values `C`, its exact discrete
+//! gradient `B^D` with `C_f − C_i = B^D Δ` (the paper's eqs. 8, 15, 22, whose transposes are the
+//! discrete constraint forces of eqs. 10, 16, 23), and its rate operator `Ċ = B(q) V` (for the
+//! ED scheme's velocity-level condition). [`JointKernel`] turns any law into the discrete
+//! equations of a step: EP applies `B^Dᵀ λ` and enforces `C_f = 0`, so the constraint forces do
+//! zero work; ED follows ed-scheme-notes §3.2–3.3.
+//!
+//! Gradients are written over *spatial* increments `[Δx₁, ρ₁, Δx₂, ρ₂, Δq…]` with
+//! `R_f = cay(ρ) R_i`; the kernel converts to the material unknowns (`ρ = R_i r`), which makes
+//! them "spatially consistent" (ed-scheme-notes §4).
+
+pub mod clamp;
+pub mod kinematics;
+pub mod revolute;
+pub mod spherical;
+pub mod universal;
+
+use crate::elements::{add3, v3, Kernel, StepCtx};
+use crate::rotation::cayley;
+use crate::scalar::Real;
+use crate::system::layout::Layout;
+use crate::vec3::{M3, V3};
+
+pub const MAX_ROWS: usize = 6;
+pub const MAX_COORDS: usize = 2;
+/// Columns of a gradient row: two nodes × (3 + 3) and the joint's coordinates.
+pub const NCOL: usize = 12 + MAX_COORDS;
+
+pub type Rows<T> = [[T; NCOL]; MAX_ROWS];
+
+/// The configuration seen by a joint: both sides' node positions and rotations and the
+/// joint's coordinates.
+#[derive(Clone, Copy, Debug)]
+pub struct JointState<T> {
+    pub x: [V3<T>; 2],
+    pub r: [M3<T>; 2],
+    pub q: [T; MAX_COORDS],
+}
+
+/// Attachment of a joint to a node: a point and a triad fixed to the node (in its triad).
+#[derive(Clone, Copy, Debug)]
+pub struct Attachment {
+    pub offset: V3<f64>,
+    pub triad: M3<f64>,
+}
+
+impl Attachment {
+    /// Spatial offset `R p` and triad `R Q` for a node rotation `R`.
+    pub fn place<T: Real>(&self, r: &M3<T>) -> (V3<T>, M3<T>) {
+        (r.mul_v(&V3::from_f64(self.offset)), r.mul_m(&M3::from_f64(&self.triad)))
+    }
+}
+
+pub trait ConstraintLaw {
+    fn n_rows(&self) -> usize;
+    fn n_coords(&self) -> usize {
+        0
+    }
+    /// `C(q)`.
+    fn value<T: Real>(&self, s: &JointState<T>, out: &mut [T]);
+    /// Exact discrete gradient: `C(f) − C(i) = B^D [Δx₁, ρ₁, Δx₂, ρ₂, Δq]`.
+    fn discrete_gradient<T: Real>(&self, si: &JointState<T>, sf: &JointState<T>, out: &mut Rows<T>);
+    /// Rate operator: `Ċ = B [v₁, ω₁, v₂, ω₂, q̇]` (spatial angular velocities).
+    fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>);
+}
+
+/// The joint types, each a law with its own module.
+#[derive(Clone, Debug)]
+pub enum JointLaw {
+    Spherical(spherical::Spherical),
+    Revolute(revolute::Revolute),
+    Universal(universal::Universal),
+    Clamp(clamp::Clamp),
+}
+
+macro_rules! dispatch {
+    ($self:expr, $j:ident => $e:expr) => {
+        match $self {
+            JointLaw::Spherical($j) => $e,
+            JointLaw::Revolute($j) => $e,
+            JointLaw::Universal($j) => $e,
+            JointLaw::Clamp($j) => $e,
+        }
+    };
+}
+
+impl ConstraintLaw for JointLaw {
+    fn n_rows(&self) -> usize {
+        dispatch!(self, j => j.n_rows())
+    }
+    fn n_coords(&self) -> usize {
+        dispatch!(self, j => j.n_coords())
+    }
+    fn value<T: Real>(&self, s: &JointState<T>, out: &mut [T]) {
+        dispatch!(self, j => j.value(s, out))
+    }
+    fn discrete_gradient<T: Real>(&self, si: &JointState<T>, sf: &JointState<T>, out: &mut Rows<T>) {
+        dispatch!(self, j => j.discrete_gradient(si, sf, out))
+    }
+    fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
+        dispatch!(self, j => j.rate(s, out))
+    }
+}
+
+/// One side of a joint: a node with unknowns, or the ground (a fixed pose).
+#[derive(Clone, Copy, Debug)]
+pub enum Side {
+    Node(usize),
+    Ground { x: V3<f64>, r: M3<f64> },
+}
+
+/// Where a side's unknowns sit in the kernel's local block.
+#[derive(Clone, Copy, Debug, Default)]
+struct SideSlots {
+    delta: Option<usize>,
+    jump: Option<usize>,
+}
+
+/// A joint instance in a system: its law, sides, coordinates and constraint rows, and the
+/// scheme's discrete equations for it.
+#[derive(Clone, Debug)]
+pub struct JointKernel {
+    pub name: String,
+    pub law: JointLaw,
+    pub sides: [Side; 2],
+    /// Global indices of the joint's coordinates.
+    pub coords: Vec<usize>,
+    /// First global constraint row.
+    pub row0: usize,
+    unknowns: Vec<usize>,
+    slots: [SideSlots; 2],
+    coord_slot: usize,
+    mult_slot: usize,
+}
+
+fn zero_rows<T: Real>() -> Rows<T> {
+    [[T::zero(); NCOL]; MAX_ROWS]
+}
+
+impl JointKernel {
+    pub fn new(name: String, law: JointLaw, sides: [Side; 2], coords: Vec<usize>, row0: usize, layout: &Layout) -> Self {
+        assert_eq!(coords.len(), law.n_coords());
+        let ed = layout.ed();
+        let mut unknowns = Vec::new();
+        let mut slots = [SideSlots::default(); 2];
+        for (k, side) in sides.iter().enumerate() {
+            if let Side::Node(a) = side {
+                slots[k].delta = Some(unknowns.len());
+                unknowns.extend((0..6).map(|c| layout.node_delta(*a) + c));
+                if ed {
+                    slots[k].jump = Some(unknowns.len());
+                    unknowns.extend((0..6).map(|c| layout.node_jump(*a) + c));
+                }
+            }
+        }
+        let coord_slot = unknowns.len();
+        for &c in &coords {
+            unknowns.push(layout.coord_delta(c));
+            if ed {
+                unknowns.push(layout.coord_jump(c));
+            }
+        }
+        let mult_slot = unknowns.len();
+        for r in 0..law.n_rows() {
+            unknowns.push(layout.mult(row0 + r));
+            if ed {
+                unknowns.push(layout.mult_jump(row0 + r));
+            }
+        }
+        JointKernel { name, law, sides, coords, row0, unknowns, slots, coord_slot, mult_slot }
+    }
+
+    pub fn n_rows(&self) -> usize {
+        self.law.n_rows()
+    }
+
+    fn per(ctx: &StepCtx) -> usize {
+        if ctx.ed() {
+            2
+        } else {
+            1
+        }
+    }
+
+    /// Start state (as `T`) of the joint.
+    fn state_i<T: Real>(&self, ctx: &StepCtx) -> JointState<T> {
+        let mut s = JointState { x: [V3::zero(); 2], r: [M3::identity(); 2], q: [T::zero(); MAX_COORDS] };
+        for (k, side) in self.sides.iter().enumerate() {
+            let (x, r) = match side {
+                Side::Node(a) => (ctx.state.nodes[*a].x, ctx.state.nodes[*a].r),
+                Side::Ground { x, r } => (*x, *r),
+            };
+            s.x[k] = V3::from_f64(x);
+            s.r[k] = M3::from_f64(&r);
+        }
+        for (c, &g) in self.coords.iter().enumerate() {
+            s.q[c] = T::cst(ctx.state.coords[g]);
+        }
+        s
+    }
+
+    /// End state from the local increments; also returns the material `r` of each side.
+    fn state_f<T: Real>(&self, ctx: &StepCtx, si: &JointState<T>, y: &[T]) -> (JointState<T>, [V3<T>; 2]) {
+        let mut sf = *si;
+        let mut rs = [V3::zero(); 2];
+        for k in 0..2 {
+            if let Some(d) = self.slots[k].delta {
+                sf.x[k] = si.x[k] + v3(y, d);
+                rs[k] = v3(y, d + 3);
+                sf.r[k] = si.r[k].mul_m(&cayley(&rs[k]));
+            }
+        }
+        let per = Self::per(ctx);
+        for c in 0..self.coords.len() {
+            sf.q[c] = si.q[c] + y[self.coord_slot + per * c];
+        }
+        (sf, rs)
+    }
+
+    /// Adds `Bᵀ λ` for gradient rows `b` over spatial columns, converting the rotation
+    /// columns to material ones with `rot[k]` (`R_i` for B^D and B(q_i), `R_f` for B(q_f)).
+    fn add_forces<T: Real>(&self, ctx: &StepCtx, b: &Rows<T>, lam: &[T], rot: &[M3<T>; 2], jump_rows: bool, out: &mut [T]) {
+        let n = self.n_rows();
+        let per = Self::per(ctx);
+        let mut g = [T::zero(); NCOL];
+        for (c, gc) in g.iter_mut().enumerate() {
+            for r in 0..n {
+                *gc += b[r][c] * lam[r];
+            }
+        }
+        for k in 0..2 {
+            let slot = if jump_rows { self.slots[k].jump } else { self.slots[k].delta };
+            if let Some(at) = slot {
+                add3(out, at, v3(&g, 6 * k));
+                add3(out, at + 3, rot[k].tmul_v(&v3(&g, 6 * k + 3)));
+            }
+        }
+        for c in 0..self.coords.len() {
+            out[self.coord_slot + per * c + usize::from(jump_rows)] += g[12 + c];
+        }
+    }
+
+    /// `B V` for a velocity given per side as (v, material W) with rotation `rot` to make ω.
+    fn apply_rate<T: Real>(&self, b: &Rows<T>, v: &[(V3<T>, V3<T>); 2], rot: &[M3<T>; 2], qdot: &[T], out: &mut [T]) {
+        let n = self.n_rows();
+        for (r, o) in out.iter_mut().enumerate().take(n) {
+            let mut acc = T::zero();
+            for k in 0..2 {
+                let w = rot[k].mul_v(&v[k].1);
+                for c in 0..3 {
+                    acc += b[r][6 * k + c] * v[k].0 .0[c] + b[r][6 * k + 3 + c] * w.0[c];
+                }
+            }
+            for (c, qd) in qdot.iter().enumerate() {
+                acc += b[r][12 + c] * *qd;
+            }
+            *o = acc;
+        }
+    }
+
+    /// Current multipliers (physical constraint forces `λ = s μ`) from a local block.
+    fn multipliers<T: Real>(&self, ctx: &StepCtx, y: &[T], jump: bool) -> [T; MAX_ROWS] {
+        let per = Self::per(ctx);
+        let mut l = [T::zero(); MAX_ROWS];
+        for (r, lr) in l.iter_mut().enumerate().take(self.n_rows()) {
+            *lr = y[self.mult_slot + per * r + usize::from(jump)] * ctx.s;
+        }
+        l
+    }
+
+    /// Reaction on node2's side at the attachment point after a converged step: force and
+    /// moment about the joint point (inertial frame), from the discrete constraint forces.
+    pub fn reaction(&self, ctx: &StepCtx, y: &[f64], attach2: &V3<f64>) -> (V3<f64>, V3<f64>) {
+        let yl: Vec<f64> = self.unknowns.iter().map(|&g| y[g]).collect();
+        let si = self.state_i::<f64>(ctx);
+        let (sf, _) = self.state_f(ctx, &si, &yl);
+        let mut b = zero_rows::<f64>();
+        self.law.discrete_gradient(&si, &sf, &mut b);
+        let lam = self.multipliers(ctx, &yl, false);
+        let mut g = [0.0; NCOL];
+        for (c, gc) in g.iter_mut().enumerate() {
+            for r in 0..self.n_rows() {
+                *gc -= b[r][c] * lam[r];
+            }
+        }
+        let f = v3(&g, 6);
+        let m_node = v3(&g, 9);
+        let arm = sf.r[1].mul_v(attach2);
+        (f, m_node - arm.cross(&f))
+    }
+
+    /// Work of the constraint forces over a converged step, `Δ·(B^Dᵀ λ)` = `λ·(C_f − C_i)`.
+    pub fn step_work(&self, ctx: &StepCtx, y: &[f64]) -> f64 {
+        let yl: Vec<f64> = self.unknowns.iter().map(|&g| y[g]).collect();
+        let si = self.state_i::<f64>(ctx);
+        let (sf, rs) = self.state_f(ctx, &si, &yl);
+        let mut b = zero_rows::<f64>();
+        self.law.discrete_gradient(&si, &sf, &mut b);
+        let lam = self.multipliers(ctx, &yl, false);
+        let mut work = 0.0;
+        for r in 0..self.n_rows() {
+            let mut bd = 0.0;
+            for k in 0..2 {
+                if let Some(d) = self.slots[k].delta {
+                    let rho = si.r[k].mul_v(&rs[k]);
+                    for c in 0..3 {
+                        bd += b[r][6 * k + c] * yl[d + c] + b[r][6 * k + 3 + c] * rho.0[c];
+                    }
+                }
+            }
+            for c in 0..self.coords.len() {
+                bd += b[r][12 + c] * (sf.q[c] - si.q[c]);
+            }
+            work += lam[r] * bd;
+        }
+        work
+    }
+
+    /// Constraint values at the end of a converged step.
+    pub fn violation(&self, ctx: &StepCtx, y: &[f64]) -> [f64; MAX_ROWS] {
+        let yl: Vec<f64> = self.unknowns.iter().map(|&g| y[g]).collect();
+        let si = self.state_i::<f64>(ctx);
+        let (sf, _) = self.state_f(ctx, &si, &yl);
+        let mut c = [0.0; MAX_ROWS];
+        self.law.value(&sf, &mut c);
+        c
+    }
+
+    /// Velocity-level rows of the constraint at a state (for initial-velocity projection).
+    pub fn rate_rows(&self, state: &crate::state::State) -> (Rows<f64>, JointState<f64>) {
+        let ctx_nodes = |k: usize| match self.sides[k] {
+            Side::Node(a) => (state.nodes[a].x, state.nodes[a].r),
+            Side::Ground { x, r } => (x, r),
+        };
+        let mut s = JointState { x: [V3::zero(); 2], r: [M3::identity(); 2], q: [0.0; MAX_COORDS] };
+        for k in 0..2 {
+            let (x, r) = ctx_nodes(k);
+            s.x[k] = x;
+            s.r[k] = r;
+        }
+        for (c, &g) in self.coords.iter().enumerate() {
+            s.q[c] = state.coords[g];
+        }
+        let mut b = zero_rows();
+        self.law.rate(&s, &mut b);
+        (b, s)
+    }
+}
+
+impl Kernel for JointKernel {
+    fn unknowns(&self) -> &[usize] {
+        &self.unknowns
+    }
+
+    fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], res: &mut [T]) {
+        let n = self.n_rows();
+        let per = Self::per(ctx);
+        let si = self.state_i::<T>(ctx);
+        let (sf, rs) = self.state_f(ctx, &si, y);
+        let mut bd = zero_rows::<T>();
+        self.law.discrete_gradient(&si, &sf, &mut bd);
+        let lam = self.multipliers(ctx, y, false);
+        let ri = si.r;
+        // f-rows: −P_f ∋ B^Dᵀ λ_f (rotation columns material via R_i).
+        self.add_forces(ctx, &bd, &lam[..n], &ri, false, res);
+        let mut c = [T::zero(); MAX_ROWS];
+        self.law.value(&sf, &mut c);
+        for r in 0..n {
+            res[self.mult_slot + per * r] += c[r] * ctx.s;
+        }
+        if !ctx.ed() {
+            return;
+        }
+        // ED: velocity-level multipliers λ_d, rate operators at i and f.
+        let lam_d = self.multipliers(ctx, y, true);
+        let mut b_i = zero_rows::<T>();
+        let mut b_f = zero_rows::<T>();
+        self.law.rate(&si, &mut b_i);
+        self.law.rate(&sf, &mut b_f);
+        let rf = sf.r;
+        let h = ctx.h;
+        // −P_f ∋ (1/12)(B_f − B_i)ᵀ λ_d ; −P_j/6 ∋ −(1/12)(B_i + B_f)ᵀ λ_d.
+        let mut ld12 = [T::zero(); MAX_ROWS];
+        for r in 0..n {
+            ld12[r] = lam_d[r] / 12.0;
+        }
+        let mut neg = [T::zero(); MAX_ROWS];
+        for r in 0..n {
+            neg[r] = -ld12[r];
+        }
+        self.add_forces(ctx, &b_f, &ld12[..n], &rf, false, res);
+        self.add_forces(ctx, &b_i, &neg[..n], &ri, false, res);
+        self.add_forces(ctx, &b_i, &neg[..n], &ri, true, res);
+        self.add_forces(ctx, &b_f, &neg[..n], &rf, true, res);
+        // Velocity-level j-condition: B(q_i) V_j − B(q_f) V_f = 0.
+        let mut vj = [(V3::zero(), V3::zero()); 2];
+        let mut vf = [(V3::zero(), V3::zero()); 2];
+        for k in 0..2 {
+            if let (Some(d), Some(j)) = (self.slots[k].delta, self.slots[k].jump) {
+                vj[k] = (v3(y, j), v3(y, j + 3));
+                vf[k] = (v3(y, d).scale_f(2.0 / h) - vj[k].0, rs[k].scale_f(2.0 / h) - vj[k].1);
+            }
+        }
+        let mut qj = [T::zero(); MAX_COORDS];
+        let mut qf = [T::zero(); MAX_COORDS];
+        for c in 0..self.coords.len() {
+            let d = y[self.coord_slot + 2 * c];
+            qj[c] = y[self.coord_slot + 2 * c + 1];
+            qf[c] = d * (2.0 / h) - qj[c];
+        }
+        let nc = self.coords.len();
+        let mut ci = [T::zero(); MAX_ROWS];
+        let mut cf = [T::zero(); MAX_ROWS];
+        self.apply_rate(&b_i, &vj, &ri, &qj[..nc], &mut ci);
+        self.apply_rate(&b_f, &vf, &rf, &qf[..nc], &mut cf);
+        for r in 0..n {
+            res[self.mult_slot + 2 * r + 1] += (ci[r] - cf[r]) * (ctx.s * h);
+        }
+    }
+}
+
+#[cfg(test)]
+pub mod law_tests {
+    //! Generic checks every joint law must pass: exactness of its discrete gradient
+    //! (`C_f − C_i = B^D Δ` for large increments) and its rate operator against a
+    //! finite-difference derivative of `C` along a motion.
+    use super::*;
+    use crate::rotation::exp_map;
+
+    pub fn random_state(seed: f64, nq: usize) -> JointState<f64> {
+        let s = |k: f64| ((seed + k) * 12.9898).sin() * 1.3;
+        let mut q = [0.0; MAX_COORDS];
+        for (c, qc) in q.iter_mut().enumerate().take(nq) {
+            *qc = s(20.0 + c as f64);
+        }
+        JointState {
+            x: [V3([s(1.0), s(2.0), s(3.0)]), V3([s(4.0), s(5.0), s(6.0)])],
+            r: [exp_map(&V3([s(7.0), s(8.0), s(9.0)])), exp_map(&V3([s(10.0), s(11.0), s(12.0)]))],
+            q,
+        }
+    }
+
+    /// Checks a law; returns (discrete-gradient error, rate error).
+    pub fn check_law<L: ConstraintLaw>(law: &L) -> (f64, f64) {
+        let nq = law.n_coords();
+        let n = law.n_rows();
+        let mut worst_d = 0.0f64;
+        let mut worst_r = 0.0f64;
+        for trial in 0..20 {
+            let si = random_state(trial as f64, nq);
+            // Large increments (rotations up to ~100°) to show the identity is exact, not a
+            // linearisation.
+            let inc = random_state(100.0 + trial as f64, nq);
+            let rho = [inc.x[0].scale_f(0.8), inc.x[1].scale_f(0.8)];
+            let dx = [inc.x[1], inc.x[0]];
+            let mut sf = si;
+            for k in 0..2 {
+                sf.x[k] = si.x[k] + dx[k];
+                sf.r[k] = cayley(&rho[k]).mul_m(&si.r[k]);
+            }
+            for c in 0..nq {
+                sf.q[c] = si.q[c] + inc.q[c];
+            }
+            let mut b = zero_rows::<f64>();
+            law.discrete_gradient(&si, &sf, &mut b);
+            let (mut cf, mut ci) = ([0.0; MAX_ROWS], [0.0; MAX_ROWS]);
+            law.value(&sf, &mut cf);
+            law.value(&si, &mut ci);
+            for r in 0..n {
+                let mut bd = 0.0;
+                for k in 0..2 {
+                    for c in 0..3 {
+                        bd += b[r][6 * k + c] * dx[k].0[c] + b[r][6 * k + 3 + c] * rho[k].0[c];
+                    }
+                }
+                for c in 0..nq {
+                    bd += b[r][12 + c] * inc.q[c];
+                }
+                worst_d = worst_d.max((cf[r] - ci[r] - bd).abs());
+            }
+            // Rate: Ċ along x(t) = x + t v, R(t) = exp(t ω̃) R, q(t) = q + t q̇.
+            let vel = random_state(200.0 + trial as f64, nq);
+            let mut rb = zero_rows::<f64>();
+            law.rate(&si, &mut rb);
+            let eps = 1e-6;
+            let moved = |t: f64| {
+                let mut s = si;
+                for k in 0..2 {
+                    s.x[k] = si.x[k] + vel.x[k].scale_f(t);
+                    s.r[k] = exp_map(&vel.x[1 - k].scale_f(t)).mul_m(&si.r[k]);
+                }
+                for c in 0..nq {
+                    s.q[c] = si.q[c] + t * vel.q[c];
+                }
+                s
+            };
+            let (mut cp, mut cm) = ([0.0; MAX_ROWS], [0.0; MAX_ROWS]);
+            law.value(&moved(eps), &mut cp);
+            law.value(&moved(-eps), &mut cm);
+            for r in 0..n {
+                let mut bv = 0.0;
+                for k in 0..2 {
+                    for c in 0..3 {
+                        bv += rb[r][6 * k + c] * vel.x[k].0[c] + rb[r][6 * k + 3 + c] * vel.x[1 - k].0[c];
+                    }
+                }
+                for c in 0..nq {
+                    bv += rb[r][12 + c] * vel.q[c];
+                }
+                worst_r = worst_r.max(((cp[r] - cm[r]) / (2.0 * eps) - bv).abs());
+            }
+        }
+        (worst_d, worst_r)
+    }
+
+    /// Tolerances: the discrete gradient is an algebraic identity (round-off, ~1e-14 for O(1)
+    /// data); the rate is compared with a central difference (truncation ~1e-12, round-off
+    /// ~1e-10).
+    pub fn assert_law<L: ConstraintLaw>(law: &L) {
+        let (d, r) = check_law(law);
+        assert!(d < 1e-13, "discrete gradient not exact: {d:e}");
+        assert!(r < 1e-8, "rate operator wrong: {r:e}");
+    }
+}

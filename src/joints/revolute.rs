@@ -1,0 +1,93 @@
+//! Revolute joint (section 4.2): coincident points, `e₃ᵏ·e₁ˡ = e₃ᵏ·e₂ˡ = 0` (eq. 11) and the
+//! relative rotation φ about e₃ defined by `C = g₁₁ sin φ + g₁₂ cos φ = 0` (eq. 17), with
+//! `g_αβ = e_αᵏ·e_βˡ`. Its exact discrete gradient is eq. (22) and the discrete forces eq. (23).
+
+use super::kinematics::*;
+use super::{Attachment, ConstraintLaw, JointState, Rows};
+use crate::scalar::{sinc_half, Real};
+
+#[derive(Clone, Debug)]
+pub struct Revolute {
+    /// Triads whose third unit vector is the axis; φ = 0 when they coincide.
+    pub at: [Attachment; 2],
+}
+
+impl ConstraintLaw for Revolute {
+    fn n_rows(&self) -> usize {
+        6
+    }
+    fn n_coords(&self) -> usize {
+        1
+    }
+    fn value<T: Real>(&self, s: &JointState<T>, out: &mut [T]) {
+        points_value(s, &self.at, out);
+        out[3] = dot_value(s, &self.at, 2, 0);
+        out[4] = dot_value(s, &self.at, 2, 1);
+        let phi = s.q[0];
+        out[5] = dot_value(s, &self.at, 0, 0) * phi.sin() + dot_value(s, &self.at, 0, 1) * phi.cos();
+    }
+    fn discrete_gradient<T: Real>(&self, si: &JointState<T>, sf: &JointState<T>, out: &mut Rows<T>) {
+        points_gradient(si, sf, &self.at, out, 0);
+        add_rotation_pair(&mut out[3], dot_mid(si, sf, &self.at, 2, 0).0, T::one());
+        add_rotation_pair(&mut out[4], dot_mid(si, sf, &self.at, 2, 1).0, T::one());
+        // Eq. (22): sin_m, cos_m are mean values, φ_m the mean angle, S_m = sin(Δφ/2)/(Δφ/2).
+        let (pi, pf) = (si.q[0], sf.q[0]);
+        let sin_m = (pi.sin() + pf.sin()) * 0.5;
+        let cos_m = (pi.cos() + pf.cos()) * 0.5;
+        let phi_m = (pi + pf) * 0.5;
+        let s_m = sinc_half(pf - pi);
+        let (h11, g11) = dot_mid(si, sf, &self.at, 0, 0);
+        let (h12, g12) = dot_mid(si, sf, &self.at, 0, 1);
+        add_rotation_pair(&mut out[5], h11.scale(sin_m) + h12.scale(cos_m), T::one());
+        out[5][12] = (g11 * phi_m.cos() - g12 * phi_m.sin()) * s_m;
+    }
+    fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
+        points_rate(s, &self.at, out, 0);
+        add_rotation_pair(&mut out[3], dot_h(s, &self.at, 2, 0), T::one());
+        add_rotation_pair(&mut out[4], dot_h(s, &self.at, 2, 1), T::one());
+        let phi = s.q[0];
+        let h = dot_h(s, &self.at, 0, 0).scale(phi.sin()) + dot_h(s, &self.at, 0, 1).scale(phi.cos());
+        add_rotation_pair(&mut out[5], h, T::one());
+        out[5][12] = dot_value(s, &self.at, 0, 0) * phi.cos() - dot_value(s, &self.at, 0, 1) * phi.sin();
+    }
+}
+
+/// The relative rotation of side l about e₃ᵏ, for initial values: φ = atan2(e₂ᵏ·e₁ˡ, e₁ᵏ·e₁ˡ).
+pub fn relative_angle(s: &JointState<f64>, at: &[Attachment; 2]) -> f64 {
+    let e1l = unit(s, 1, &at[1], 0);
+    unit(s, 0, &at[0], 1).dot(&e1l).atan2(unit(s, 0, &at[0], 0).dot(&e1l))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::joints::law_tests::assert_law;
+    use crate::rotation::exp_map;
+    use crate::vec3::V3;
+
+    #[test]
+    fn discrete_gradient_exact_and_rate_consistent() {
+        let at = [
+            Attachment { offset: V3([0.3, -0.2, 0.5]), triad: exp_map(&V3([0.1, 0.2, 0.3])) },
+            Attachment { offset: V3([-0.4, 0.1, 0.2]), triad: exp_map(&V3([0.0, -0.5, 0.3])) },
+        ];
+        assert_law(&Revolute { at });
+    }
+
+    #[test]
+    fn phi_is_the_rotation_of_l_about_the_axis() {
+        use crate::joints::{JointState, MAX_COORDS};
+        use crate::vec3::M3;
+        let at = [Attachment { offset: V3([0.0; 3]), triad: M3::identity() }; 2];
+        let phi = 0.7;
+        let s = JointState {
+            x: [V3([0.0; 3]); 2],
+            r: [M3::identity(), exp_map(&V3([0.0, 0.0, phi]))],
+            q: [phi; MAX_COORDS],
+        };
+        let mut c = [0.0; 6];
+        Revolute { at }.value(&s, &mut c);
+        assert!(c.iter().all(|v| v.abs() < 1e-15), "{c:?}");
+        assert!((relative_angle(&s, &at) - phi).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,38 @@
+//! Parsing model text (YAML or JSON) into [`Model`], with the path of any offending item.
+
+use super::{Model, ModelError, ModelErrors};
+
+/// Parse and validate a YAML model.
+pub fn from_yaml_str(text: &str) -> Result<Model, ModelErrors> {
+    let de = serde_norway::Deserializer::from_str(text);
+    let model: Model = serde_path_to_error::deserialize(de).map_err(|e| {
+        let path = e.path().to_string();
+        let inner = e.into_inner();
+        ModelErrors::one(ModelError::new(if path == "." { String::new() } else { path }, clean(&inner.to_string())))
+    })?;
+    model.validate()?;
+    Ok(model)
+}
+
+/// Parse and validate a JSON model (what the Python builder sends).
+pub fn from_json_str(text: &str) -> Result<Model, ModelErrors> {
+    let mut de = serde_json::Deserializer::from_str(text);
+    let model: Model = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let path = e.path().to_string();
+        let inner = e.into_inner();
+        ModelErrors::one(ModelError::new(if path == "." { String::new() } else { path }, clean(&inner.to_string())))
+    })?;
+    model.validate()?;
+    Ok(model)
+}
+
+/// Serde's message for an untagged enum says nothing useful; say what is accepted.
+fn clean(msg: &str) -> String {
+    if msg.contains("did not match any variant of untagged enum Inertia") {
+        return "must be [I11, I22, I33] or a 3×3 matrix of numbers".into();
+    }
+    if msg.contains("did not match any variant of untagged enum TimeFunctionSpec") {
+        return "must be a number, an expression of t in quotes, or a table {t: [...], value: [...]}".into();
+    }
+    msg.to_string()
+}

@@ -1,0 +1,369 @@
+//! The model file: plain serde types, validated with precise paths in errors.
+//!
+//! A model is what a user writes in YAML (or builds in Python, which produces the same JSON).
+//! Everything here is declarative; [`crate::system::System`] compiles it into numbered unknowns,
+//! elements and constraints. The JSON Schema printed by `flexdyn schema` is generated from these
+//! very types.
+
+mod load;
+mod validate;
+
+pub use load::{from_json_str, from_yaml_str};
+pub use validate::{ModelError, ModelErrors};
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+pub type Vec3 = [f64; 3];
+pub type Mat3 = [[f64; 3]; 3];
+
+/// Reserved node name for the inertial frame.
+pub const GROUND: &str = "ground";
+
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug, Default)]
+#[serde(deny_unknown_fields)]
+pub struct Model {
+    /// A name for the model (used in result files and reports).
+    #[serde(default)]
+    pub name: String,
+    /// Gravitational acceleration, m/s², inertial frame.
+    #[serde(default)]
+    pub gravity: Vec3,
+    #[serde(default)]
+    pub nodes: Vec<Node>,
+    #[serde(default)]
+    pub bodies: Vec<RigidBody>,
+    #[serde(default)]
+    pub joints: Vec<Joint>,
+    #[serde(default)]
+    pub loads: Vec<Load>,
+    #[serde(default)]
+    pub sensors: Vec<Sensor>,
+    #[serde(default)]
+    pub simulation: SimulationSettings,
+}
+
+/// A node: a point with a triad, the carrier of 3 displacement and 3 rotation unknowns.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct Node {
+    pub name: String,
+    /// Initial position, m, inertial frame.
+    pub position: Vec3,
+    /// Initial orientation of the node's triad relative to the inertial frame.
+    #[serde(default)]
+    pub orientation: Orientation,
+    /// Initial velocity, m/s, inertial frame.
+    #[serde(default)]
+    pub velocity: Vec3,
+    /// Initial angular velocity, rad/s, inertial frame.
+    #[serde(default)]
+    pub angular_velocity: Vec3,
+}
+
+/// Orientation of a triad: give at most one of the fields (none means aligned with the
+/// inertial frame).
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug, Default)]
+#[serde(deny_unknown_fields)]
+pub struct Orientation {
+    /// Rotation matrix whose columns are the triad's unit vectors in the inertial frame.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub matrix: Option<Mat3>,
+    /// Rotation vector (axis × angle, rad) from the inertial frame to the triad.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation_vector: Option<Vec3>,
+}
+
+/// A rigid body carried by a node.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct RigidBody {
+    pub name: String,
+    /// The node that carries the body.
+    pub node: String,
+    /// Mass, kg.
+    pub mass: f64,
+    /// Inertia tensor about the centre of mass, kg·m², in the node's triad: either the three
+    /// principal values `[I11, I22, I33]` or the full symmetric 3×3 matrix.
+    pub inertia: Inertia,
+    /// Position of the centre of mass relative to the node, m, in the node's triad.
+    #[serde(default)]
+    pub cm_offset: Vec3,
+}
+
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(untagged)]
+pub enum Inertia {
+    Principal(Vec3),
+    Full(Mat3),
+}
+
+impl Inertia {
+    pub fn matrix(&self) -> Mat3 {
+        match self {
+            Inertia::Principal(d) => [[d[0], 0.0, 0.0], [0.0, d[1], 0.0], [0.0, 0.0, d[2]]],
+            Inertia::Full(m) => *m,
+        }
+    }
+}
+
+/// A function of time: a number, an expression of `t` (e.g. `"0.5*sin(2*pi*t)"`) or a table.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(untagged)]
+pub enum TimeFunctionSpec {
+    Constant(f64),
+    Expression(String),
+    /// Piecewise-linear in `t`, held constant beyond the ends.
+    Table { t: Vec<f64>, value: Vec<f64> },
+}
+
+/// A linear spring and damper on a joint's relative coordinate.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug, Default)]
+#[serde(deny_unknown_fields)]
+pub struct SpringDamper {
+    /// N·m/rad for rotations (N/m for displacements).
+    #[serde(default)]
+    pub stiffness: f64,
+    /// N·m·s/rad for rotations (N·s/m for displacements).
+    #[serde(default)]
+    pub damping: f64,
+    /// Value of the coordinate at which the spring is unloaded.
+    #[serde(default)]
+    pub rest: f64,
+}
+
+/// Joints connect two nodes (`node1` is body k of the paper, `node2` body l); either may be
+/// `ground`. Positions and axes are given in the inertial frame in the initial configuration.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum Joint {
+    /// Coincident points (3 constraints).
+    Spherical(SphericalJoint),
+    /// Coincident points and a common axis; relative rotation φ about it (eqs. 17–23).
+    Revolute(RevoluteJoint),
+    /// Coincident points, `axis1` on node1 stays orthogonal to `axis2` on node2 (eqs. 11–16).
+    Universal(UniversalJoint),
+    /// Rigid connection: no relative motion at all.
+    Clamp(ClampJoint),
+}
+
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct SphericalJoint {
+    pub name: String,
+    pub node1: String,
+    pub node2: String,
+    /// Joint location, m (defaults to node2's initial position).
+    #[serde(default)]
+    pub position: Option<Vec3>,
+}
+
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct RevoluteJoint {
+    pub name: String,
+    pub node1: String,
+    pub node2: String,
+    /// Joint location, m (defaults to node2's initial position).
+    #[serde(default)]
+    pub position: Option<Vec3>,
+    /// Unit vector of the rotation axis.
+    pub axis: Vec3,
+    /// Prescribed relative rotation φ(t), rad. Its multiplier is the driving torque.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drive: Option<TimeFunctionSpec>,
+    /// Spring and damper on φ.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spring: Option<SpringDamper>,
+}
+
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct UniversalJoint {
+    pub name: String,
+    pub node1: String,
+    pub node2: String,
+    #[serde(default)]
+    pub position: Option<Vec3>,
+    /// Unit vector fixed to node1.
+    pub axis1: Vec3,
+    /// Unit vector fixed to node2, orthogonal to `axis1`.
+    pub axis2: Vec3,
+}
+
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct ClampJoint {
+    pub name: String,
+    pub node1: String,
+    pub node2: String,
+}
+
+impl Joint {
+    pub fn name(&self) -> &str {
+        match self {
+            Joint::Spherical(j) => &j.name,
+            Joint::Revolute(j) => &j.name,
+            Joint::Universal(j) => &j.name,
+            Joint::Clamp(j) => &j.name,
+        }
+    }
+    pub fn nodes(&self) -> (&str, &str) {
+        match self {
+            Joint::Spherical(j) => (&j.node1, &j.node2),
+            Joint::Revolute(j) => (&j.node1, &j.node2),
+            Joint::Universal(j) => (&j.node1, &j.node2),
+            Joint::Clamp(j) => (&j.node1, &j.node2),
+        }
+    }
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Joint::Spherical(_) => "spherical",
+            Joint::Revolute(_) => "revolute",
+            Joint::Universal(_) => "universal",
+            Joint::Clamp(_) => "clamp",
+        }
+    }
+}
+
+/// Applied loads at nodes: dead (fixed direction in the inertial frame), scaled by a function
+/// of time.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum Load {
+    /// Point force, N, inertial frame.
+    Force(PointLoad),
+    /// Point moment, N·m, inertial frame.
+    Moment(PointLoad),
+}
+
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct PointLoad {
+    pub name: String,
+    pub node: String,
+    /// Load vector, inertial frame.
+    pub value: Vec3,
+    /// Multiplies `value`; defaults to 1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<TimeFunctionSpec>,
+}
+
+impl Load {
+    pub fn spec(&self) -> &PointLoad {
+        match self {
+            Load::Force(l) | Load::Moment(l) => l,
+        }
+    }
+}
+
+/// A named quantity recorded during the run. Each sensor gives one or more channels named
+/// `<sensor>.<component>`.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum Sensor {
+    /// `.x .y .z`, m.
+    NodePosition { name: String, node: String },
+    /// Displacement from the initial position: `.x .y .z`, m.
+    NodeDisplacement { name: String, node: String },
+    /// Rotation vector from the initial orientation `.x .y .z` (rad) and the triad matrix
+    /// entries `.R11` … `.R33`.
+    NodeRotation { name: String, node: String },
+    /// Velocity `.vx .vy .vz` (m/s) and angular velocity `.wx .wy .wz` (rad/s), inertial frame.
+    NodeVelocity { name: String, node: String },
+    /// A joint's relative coordinate and its rate (revolute: `.phi`, `.phi_rate`).
+    JointCoordinate { name: String, joint: String },
+    /// Reaction on node2 at the joint point, inertial frame: `.Fx .Fy .Fz` (N) and
+    /// `.Mx .My .Mz` (N·m).
+    JointReaction { name: String, joint: String },
+    /// Driving torque (or force) of a prescribed joint coordinate, and the work it has done.
+    DriveForce { name: String, joint: String },
+    /// `.kinetic .potential .total .drive_work .external_work .damper_work .numerical_dissipation`, J.
+    Energy { name: String },
+}
+
+impl Sensor {
+    pub fn name(&self) -> &str {
+        match self {
+            Sensor::NodePosition { name, .. }
+            | Sensor::NodeDisplacement { name, .. }
+            | Sensor::NodeRotation { name, .. }
+            | Sensor::NodeVelocity { name, .. }
+            | Sensor::JointCoordinate { name, .. }
+            | Sensor::JointReaction { name, .. }
+            | Sensor::DriveForce { name, .. }
+            | Sensor::Energy { name } => name,
+        }
+    }
+}
+
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Scheme {
+    /// Energy preserving: total energy conserved to Newton tolerance, no numerical damping.
+    Ep,
+    /// Energy decaying (strain-rate jump form): energy never increases; unresolved high
+    /// frequencies are annihilated.
+    #[default]
+    Ed,
+}
+
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct SimulationSettings {
+    #[serde(default)]
+    pub scheme: Scheme,
+    /// End time, s.
+    #[serde(default = "default_t_end")]
+    pub t_end: f64,
+    /// Time step, s.
+    #[serde(default = "default_dt")]
+    pub dt: f64,
+    /// Interval between recorded samples, s (defaults to `dt`). Must be a multiple of `dt`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output_dt: Option<f64>,
+    /// How many times a step whose Newton iteration fails is halved before the run stops.
+    #[serde(default = "default_max_halvings")]
+    pub max_step_halvings: u32,
+    /// Newton convergence: residual norm relative to the model's force scale.
+    #[serde(default = "default_newton_tol")]
+    pub newton_tol: f64,
+    #[serde(default = "default_max_iter")]
+    pub max_newton_iterations: u32,
+}
+
+fn default_t_end() -> f64 {
+    1.0
+}
+fn default_dt() -> f64 {
+    1e-3
+}
+fn default_max_halvings() -> u32 {
+    6
+}
+fn default_newton_tol() -> f64 {
+    1e-10
+}
+fn default_max_iter() -> u32 {
+    25
+}
+
+impl Default for SimulationSettings {
+    fn default() -> Self {
+        SimulationSettings {
+            scheme: Scheme::default(),
+            t_end: default_t_end(),
+            dt: default_dt(),
+            output_dt: None,
+            max_step_halvings: default_max_halvings(),
+            newton_tol: default_newton_tol(),
+            max_newton_iterations: default_max_iter(),
+        }
+    }
+}
+
+/// The JSON Schema of the model file, generated from these types.
+pub fn json_schema() -> String {
+    let schema = schemars::schema_for!(Model);
+    serde_json::to_string_pretty(&schema).expect("schema serialises")
+}

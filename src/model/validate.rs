@@ -1,0 +1,294 @@
+//! Semantic checks of a parsed model. Every error names the item by its path in the file
+//! (`joints[3].axis`) and its name, and says how to fix it.
+
+use super::*;
+use crate::time_function::TimeFunction;
+use std::collections::HashMap;
+use std::fmt;
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelError {
+    pub path: String,
+    pub message: String,
+}
+
+impl ModelError {
+    pub fn new(path: impl Into<String>, message: impl Into<String>) -> Self {
+        ModelError { path: path.into(), message: message.into() }
+    }
+}
+
+impl fmt::Display for ModelError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.path.is_empty() {
+            write!(f, "{}", self.message)
+        } else {
+            write!(f, "{}: {}", self.path, self.message)
+        }
+    }
+}
+
+/// All problems found in a model, one line each.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelErrors(pub Vec<ModelError>);
+
+impl ModelErrors {
+    pub fn one(e: ModelError) -> Self {
+        ModelErrors(vec![e])
+    }
+}
+
+impl fmt::Display for ModelErrors {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let lines: Vec<String> = self.0.iter().map(|e| e.to_string()).collect();
+        write!(f, "{}", lines.join("\n"))
+    }
+}
+
+impl std::error::Error for ModelErrors {}
+
+const UNIT_TOL: f64 = 1e-6;
+
+fn finite3(v: &Vec3) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+fn norm(v: &Vec3) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// Cholesky test of a symmetric 3×3 matrix.
+fn is_spd(m: &Mat3) -> bool {
+    let a = m[0][0];
+    if a <= 0.0 {
+        return false;
+    }
+    let l10 = m[1][0] / a.sqrt();
+    let d1 = m[1][1] - l10 * l10;
+    if d1 <= 0.0 {
+        return false;
+    }
+    let l20 = m[2][0] / a.sqrt();
+    let l21 = (m[2][1] - l20 * l10) / d1.sqrt();
+    m[2][2] - l20 * l20 - l21 * l21 > 0.0
+}
+
+struct Checker {
+    errors: Vec<ModelError>,
+}
+
+impl Checker {
+    fn err(&mut self, path: impl Into<String>, msg: impl Into<String>) {
+        self.errors.push(ModelError::new(path, msg));
+    }
+    fn vec3(&mut self, path: String, v: &Vec3) {
+        if !finite3(v) {
+            self.err(path, "must contain three finite numbers");
+        }
+    }
+    fn unit(&mut self, path: String, v: &Vec3, what: &str) {
+        let n = norm(v);
+        if !finite3(v) || (n - 1.0).abs() > UNIT_TOL {
+            self.err(path, format!("must be a unit vector (|{what}| = {n:.6}); divide it by its length"));
+        }
+    }
+    fn time_function(&mut self, path: String, f: &TimeFunctionSpec) {
+        if let Err(e) = TimeFunction::new(f) {
+            self.err(path, e);
+        }
+    }
+}
+
+impl Model {
+    /// Checks references, physical admissibility and settings; returns every problem found.
+    pub fn validate(&self) -> Result<(), ModelErrors> {
+        let mut c = Checker { errors: Vec::new() };
+        c.vec3("gravity".into(), &self.gravity);
+
+        // Names are unique across all items so that every reference is unambiguous.
+        let mut seen: HashMap<String, String> = HashMap::new();
+        let mut name = |c: &mut Checker, path: String, n: &str| {
+            if n.is_empty() {
+                c.err(format!("{path}.name"), "must not be empty");
+            } else if n == GROUND {
+                c.err(format!("{path}.name"), "`ground` is reserved for the inertial frame; choose another name");
+            } else if let Some(first) = seen.get(n) {
+                c.err(format!("{path}.name"), format!("duplicate name `{n}` (already used by {first}); names must be unique"));
+            } else {
+                seen.insert(n.to_string(), path);
+            }
+        };
+        let items = || {
+            let a = self.nodes.iter().enumerate().map(|(i, n)| (format!("nodes[{i}]"), n.name.as_str()));
+            let b = self.bodies.iter().enumerate().map(|(i, n)| (format!("bodies[{i}]"), n.name.as_str()));
+            let j = self.joints.iter().enumerate().map(|(i, n)| (format!("joints[{i}]"), n.name()));
+            let l = self.loads.iter().enumerate().map(|(i, n)| (format!("loads[{i}]"), n.spec().name.as_str()));
+            let s = self.sensors.iter().enumerate().map(|(i, n)| (format!("sensors[{i}]"), n.name()));
+            a.chain(b).chain(j).chain(l).chain(s).collect::<Vec<_>>()
+        };
+        for (path, n) in items() {
+            name(&mut c, path, n);
+        }
+
+        let node_names: HashMap<&str, usize> = self.nodes.iter().enumerate().map(|(i, n)| (n.name.as_str(), i)).collect();
+        let node_ref = |c: &mut Checker, path: String, n: &str, allow_ground: bool| {
+            if n == GROUND {
+                if !allow_ground {
+                    c.err(path, "cannot be `ground` here; give a node name");
+                }
+            } else if !node_names.contains_key(n) {
+                c.err(path, format!("refers to node `{n}`, which is not defined in `nodes`"));
+            }
+        };
+
+        for (i, n) in self.nodes.iter().enumerate() {
+            let p = format!("nodes[{i}]");
+            c.vec3(format!("{p}.position"), &n.position);
+            c.vec3(format!("{p}.velocity"), &n.velocity);
+            c.vec3(format!("{p}.angular_velocity"), &n.angular_velocity);
+            let o = &n.orientation;
+            if o.matrix.is_some() && o.rotation_vector.is_some() {
+                c.err(format!("{p}.orientation"), format!("node `{}`: give either `matrix` or `rotation_vector`, not both", n.name));
+            }
+            if let Some(m) = &o.matrix {
+                let r = crate::vec3::M3(*m);
+                if let Err(e) = crate::rotation::check_rotation(&r, 1e-9) {
+                    c.err(format!("{p}.orientation.matrix"), format!("node `{}`: {e}; columns must be orthonormal unit vectors", n.name));
+                }
+            }
+            if let Some(v) = &o.rotation_vector {
+                c.vec3(format!("{p}.orientation.rotation_vector"), v);
+            }
+        }
+
+        for (i, b) in self.bodies.iter().enumerate() {
+            let p = format!("bodies[{i}]");
+            node_ref(&mut c, format!("{p}.node"), &b.node, false);
+            if !(b.mass.is_finite() && b.mass > 0.0) {
+                c.err(format!("{p}.mass"), format!("body `{}`: mass must be positive (got {})", b.name, b.mass));
+            }
+            let m = b.inertia.matrix();
+            let finite = m.iter().flatten().all(|x| x.is_finite());
+            let scale = m.iter().flatten().fold(0.0f64, |a, x| a.max(x.abs()));
+            let sym = (0..3).all(|r| (0..3).all(|s| (m[r][s] - m[s][r]).abs() <= 1e-9 * scale));
+            if !finite || !sym {
+                c.err(format!("{p}.inertia"), format!("body `{}`: inertia must be a symmetric matrix of finite numbers", b.name));
+            } else if !is_spd(&m) {
+                c.err(
+                    format!("{p}.inertia"),
+                    format!("body `{}`: inertia must be positive definite (all principal moments > 0)", b.name),
+                );
+            }
+            c.vec3(format!("{p}.cm_offset"), &b.cm_offset);
+        }
+
+        let joint_names: HashMap<&str, &Joint> = self.joints.iter().map(|j| (j.name(), j)).collect();
+        for (i, j) in self.joints.iter().enumerate() {
+            let p = format!("joints[{i}]");
+            let (n1, n2) = j.nodes();
+            node_ref(&mut c, format!("{p}.node1"), n1, true);
+            node_ref(&mut c, format!("{p}.node2"), n2, true);
+            if n1 == n2 {
+                c.err(format!("{p}.node2"), format!("joint `{}` connects `{n1}` to itself; node1 and node2 must differ", j.name()));
+            }
+            let pos = match j {
+                Joint::Spherical(s) => s.position,
+                Joint::Revolute(s) => s.position,
+                Joint::Universal(s) => s.position,
+                Joint::Clamp(_) => None,
+            };
+            if let Some(pos) = pos {
+                c.vec3(format!("{p}.position"), &pos);
+            }
+            match j {
+                Joint::Revolute(r) => {
+                    c.unit(format!("{p}.axis"), &r.axis, "axis");
+                    if let Some(d) = &r.drive {
+                        c.time_function(format!("{p}.drive"), d);
+                    }
+                    if let Some(s) = &r.spring {
+                        for (f, v) in [("stiffness", s.stiffness), ("damping", s.damping)] {
+                            if !(v.is_finite() && v >= 0.0) {
+                                c.err(format!("{p}.spring.{f}"), format!("joint `{}`: must be ≥ 0 (got {v})", r.name));
+                            }
+                        }
+                        if !s.rest.is_finite() {
+                            c.err(format!("{p}.spring.rest"), "must be a finite number");
+                        }
+                    }
+                }
+                Joint::Universal(u) => {
+                    c.unit(format!("{p}.axis1"), &u.axis1, "axis1");
+                    c.unit(format!("{p}.axis2"), &u.axis2, "axis2");
+                    let d: f64 = (0..3).map(|k| u.axis1[k] * u.axis2[k]).sum();
+                    if d.abs() > UNIT_TOL {
+                        c.err(format!("{p}.axis2"), format!("joint `{}`: axis1 and axis2 must be orthogonal (axis1·axis2 = {d:.3e})", u.name));
+                    }
+                }
+                _ => {}
+            }
+        }
+
+        for (i, l) in self.loads.iter().enumerate() {
+            let p = format!("loads[{i}]");
+            let s = l.spec();
+            node_ref(&mut c, format!("{p}.node"), &s.node, false);
+            c.vec3(format!("{p}.value"), &s.value);
+            if let Some(f) = &s.scale {
+                c.time_function(format!("{p}.scale"), f);
+            }
+        }
+
+        for (i, s) in self.sensors.iter().enumerate() {
+            let p = format!("sensors[{i}]");
+            match s {
+                Sensor::NodePosition { node, .. }
+                | Sensor::NodeDisplacement { node, .. }
+                | Sensor::NodeRotation { node, .. }
+                | Sensor::NodeVelocity { node, .. } => node_ref(&mut c, format!("{p}.node"), node, false),
+                Sensor::JointCoordinate { joint, .. } | Sensor::JointReaction { joint, .. } | Sensor::DriveForce { joint, .. } => {
+                    match joint_names.get(joint.as_str()) {
+                        None => c.err(format!("{p}.joint"), format!("refers to joint `{joint}`, which is not defined in `joints`")),
+                        Some(j) => match (s, j) {
+                            (Sensor::JointCoordinate { .. }, Joint::Revolute(_)) => {}
+                            (Sensor::JointCoordinate { .. }, _) => c.err(
+                                format!("{p}.joint"),
+                                format!("joint `{joint}` is a {} joint, which has no relative coordinate", j.kind()),
+                            ),
+                            (Sensor::DriveForce { .. }, Joint::Revolute(r)) if r.drive.is_some() => {}
+                            (Sensor::DriveForce { .. }, _) => {
+                                c.err(format!("{p}.joint"), format!("joint `{joint}` has no drive; add `drive:` to it or remove this sensor"))
+                            }
+                            _ => {}
+                        },
+                    }
+                }
+                Sensor::Energy { .. } => {}
+            }
+        }
+
+        let s = &self.simulation;
+        if !(s.t_end.is_finite() && s.t_end > 0.0) {
+            c.err("simulation.t_end", format!("must be positive (got {})", s.t_end));
+        }
+        if !(s.dt.is_finite() && s.dt > 0.0) {
+            c.err("simulation.dt", format!("must be positive (got {})", s.dt));
+        } else if let Some(o) = s.output_dt {
+            let k = (o / s.dt).round();
+            if !(o.is_finite() && o > 0.0) || k < 1.0 || (o - k * s.dt).abs() > 1e-9 * o {
+                c.err("simulation.output_dt", format!("must be a positive multiple of dt = {} (got {o})", s.dt));
+            }
+        }
+        if !(s.newton_tol.is_finite() && s.newton_tol > 0.0 && s.newton_tol < 1.0) {
+            c.err("simulation.newton_tol", "must be between 0 and 1");
+        }
+        if s.max_newton_iterations < 2 {
+            c.err("simulation.max_newton_iterations", "must be at least 2");
+        }
+
+        if c.errors.is_empty() {
+            Ok(())
+        } else {
+            Err(ModelErrors(c.errors))
+        }
+    }
+}

@@ -1,0 +1,31 @@
+//! The configuration and velocities of the system at one instant.
+
+use crate::vec3::{M3, V3};
+
+/// A node's state: position `x`, rotation `R` (stored as a matrix, never as parameters),
+/// velocity `v` (inertial frame) and *material* angular velocity `W` (node triad).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NodeState {
+    pub x: V3<f64>,
+    pub r: M3<f64>,
+    pub v: V3<f64>,
+    pub w: V3<f64>,
+}
+
+impl NodeState {
+    /// Angular velocity in the inertial frame, `ω = R W`.
+    pub fn omega(&self) -> V3<f64> {
+        self.r.mul_v(&self.w)
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct State {
+    pub t: f64,
+    pub nodes: Vec<NodeState>,
+    /// Joints' relative coordinates (φ, Δ, …) and their rates.
+    pub coords: Vec<f64>,
+    pub coord_rates: Vec<f64>,
+    /// Constraint forces per constraint row (unscaled multipliers of the last step).
+    pub lambda: Vec<f64>,
+}

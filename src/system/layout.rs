@@ -1,0 +1,138 @@
+//! Numbering of a step's unknowns. The layout depends on the scheme: EP solves for the
+//! increments Δ and one multiplier per constraint row; ED (strain-rate-jump form) also solves
+//! for the jump velocities V_j and a second, velocity-level multiplier per row
+//! (`reference/ed-scheme-notes.md` §3.1). Every unknown also names a residual row, so the
+//! Newton matrix is square with a structurally symmetric pattern.
+
+use crate::model::Scheme;
+
+#[derive(Clone, Copy, Debug)]
+pub struct Layout {
+    pub scheme: Scheme,
+    pub n_nodes: usize,
+    pub n_coords: usize,
+    pub n_rows: usize,
+}
+
+/// Which equation a global row is (for diagnostics).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RowOwner {
+    NodeForce { node: usize, component: usize },
+    NodeJump { node: usize, component: usize },
+    CoordForce { coord: usize },
+    CoordJump { coord: usize },
+    Constraint { row: usize },
+    ConstraintRate { row: usize },
+}
+
+impl Layout {
+    pub fn new(scheme: Scheme, n_nodes: usize, n_coords: usize, n_rows: usize) -> Self {
+        Layout { scheme, n_nodes, n_coords, n_rows }
+    }
+    #[inline]
+    pub fn ed(&self) -> bool {
+        self.scheme == Scheme::Ed
+    }
+    #[inline]
+    fn per(&self) -> usize {
+        if self.ed() {
+            2
+        } else {
+            1
+        }
+    }
+    /// First of node `a`'s six increment unknowns `[Δx, r]`.
+    #[inline]
+    pub fn node_delta(&self, a: usize) -> usize {
+        6 * self.per() * a
+    }
+    /// First of node `a`'s six jump velocities `[v_j, W_j]` (ED only).
+    #[inline]
+    pub fn node_jump(&self, a: usize) -> usize {
+        debug_assert!(self.ed());
+        12 * a + 6
+    }
+    #[inline]
+    pub fn coord_delta(&self, c: usize) -> usize {
+        6 * self.per() * self.n_nodes + self.per() * c
+    }
+    #[inline]
+    pub fn coord_jump(&self, c: usize) -> usize {
+        debug_assert!(self.ed());
+        self.coord_delta(c) + 1
+    }
+    #[inline]
+    pub fn mult(&self, row: usize) -> usize {
+        self.per() * (6 * self.n_nodes + self.n_coords) + self.per() * row
+    }
+    #[inline]
+    pub fn mult_jump(&self, row: usize) -> usize {
+        debug_assert!(self.ed());
+        self.mult(row) + 1
+    }
+    pub fn n_unknowns(&self) -> usize {
+        self.per() * (6 * self.n_nodes + self.n_coords + self.n_rows)
+    }
+    pub fn owner(&self, i: usize) -> RowOwner {
+        let p = self.per();
+        let nn = 6 * p * self.n_nodes;
+        if i < nn {
+            let node = i / (6 * p);
+            let k = i % (6 * p);
+            return if k < 6 { RowOwner::NodeForce { node, component: k } } else { RowOwner::NodeJump { node, component: k - 6 } };
+        }
+        let i = i - nn;
+        if i < p * self.n_coords {
+            let coord = i / p;
+            return if i % p == 0 { RowOwner::CoordForce { coord } } else { RowOwner::CoordJump { coord } };
+        }
+        let i = i - p * self.n_coords;
+        let row = i / p;
+        if i % p == 0 {
+            RowOwner::Constraint { row }
+        } else {
+            RowOwner::ConstraintRate { row }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_unknown_has_one_owner_and_round_trips() {
+        for scheme in [Scheme::Ep, Scheme::Ed] {
+            let l = Layout::new(scheme, 3, 2, 5);
+            let mut seen = vec![false; l.n_unknowns()];
+            for a in 0..3 {
+                for k in 0..6 {
+                    let i = l.node_delta(a) + k;
+                    assert_eq!(l.owner(i), RowOwner::NodeForce { node: a, component: k });
+                    seen[i] = true;
+                    if l.ed() {
+                        let j = l.node_jump(a) + k;
+                        assert_eq!(l.owner(j), RowOwner::NodeJump { node: a, component: k });
+                        seen[j] = true;
+                    }
+                }
+            }
+            for c in 0..2 {
+                seen[l.coord_delta(c)] = true;
+                assert_eq!(l.owner(l.coord_delta(c)), RowOwner::CoordForce { coord: c });
+                if l.ed() {
+                    seen[l.coord_jump(c)] = true;
+                }
+            }
+            for r in 0..5 {
+                seen[l.mult(r)] = true;
+                assert_eq!(l.owner(l.mult(r)), RowOwner::Constraint { row: r });
+                if l.ed() {
+                    seen[l.mult_jump(r)] = true;
+                    assert_eq!(l.owner(l.mult_jump(r)), RowOwner::ConstraintRate { row: r });
+                }
+            }
+            assert!(seen.iter().all(|&s| s));
+        }
+    }
+}

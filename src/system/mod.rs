@@ -1,0 +1,2 @@
+//! Compiling a [`Model`](crate::model::Model) into numbered unknowns and kernels.
+pub mod layout;

@@ -1,0 +1,205 @@
+//! Functions of time for drives and loads: constants, expressions of `t` and tables.
+//!
+//! Expressions are parsed by `exmex`, a pure expression evaluator: a model file can name
+//! arithmetic, `sin`, `cos`, `exp`, … of `t` and the constant `pi`, and nothing else — it can
+//! never execute code. Derivatives come from exmex's symbolic differentiation, so prescribed
+//! motions have consistent velocities.
+
+use crate::model::TimeFunctionSpec;
+use exmex::{Differentiate, Express, FlatEx};
+
+#[derive(Clone, Debug)]
+pub enum TimeFunction {
+    Constant(f64),
+    Expression {
+        text: String,
+        value: FlatEx<f64>,
+        /// `None` when the expression does not depend on `t`.
+        rate: Option<FlatEx<f64>>,
+        accel: Option<FlatEx<f64>>,
+    },
+    /// Piecewise-linear table; constant beyond its ends.
+    Table { t: Vec<f64>, v: Vec<f64> },
+}
+
+/// Replace the identifier `pi` by exmex's `PI` so users can write the natural spelling.
+fn normalise_constants(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut ident = String::new();
+    let flush = |ident: &mut String, out: &mut String| {
+        if ident == "pi" {
+            out.push_str("PI");
+        } else {
+            out.push_str(ident);
+        }
+        ident.clear();
+    };
+    for ch in text.chars() {
+        if ch.is_ascii_alphanumeric() || ch == '_' || (ch == '.' && ident.is_empty()) {
+            if ch == '.' {
+                out.push(ch);
+            } else {
+                ident.push(ch);
+            }
+        } else {
+            flush(&mut ident, &mut out);
+            out.push(ch);
+        }
+    }
+    flush(&mut ident, &mut out);
+    out
+}
+
+impl TimeFunction {
+    /// Builds a time function; the error text says what is wrong with the expression or table.
+    pub fn new(spec: &TimeFunctionSpec) -> Result<Self, String> {
+        match spec {
+            TimeFunctionSpec::Constant(c) => {
+                if !c.is_finite() {
+                    return Err("must be a finite number".into());
+                }
+                Ok(TimeFunction::Constant(*c))
+            }
+            TimeFunctionSpec::Expression(text) => {
+                let norm = normalise_constants(text);
+                let value = exmex::parse::<f64>(&norm).map_err(|e| format!("cannot parse expression `{text}`: {}", e.msg()))?;
+                let names = value.var_names().to_vec();
+                if let Some(bad) = names.iter().find(|n| n.as_str() != "t") {
+                    return Err(format!(
+                        "expression `{text}` uses unknown name `{bad}`; only the time `t` and the constant `pi` are available"
+                    ));
+                }
+                let (rate, accel) = if names.is_empty() {
+                    (None, None)
+                } else {
+                    let r = value.clone().partial(0).map_err(|e| format!("cannot differentiate `{text}`: {}", e.msg()))?;
+                    let a = r.clone().partial(0).map_err(|e| format!("cannot differentiate `{text}` twice: {}", e.msg()))?;
+                    (Some(r), Some(a))
+                };
+                let f = TimeFunction::Expression { text: text.clone(), value, rate, accel };
+                // Evaluate once to catch e.g. `log(t - 1)` at t = 0 before a run starts.
+                let v0 = f.value(0.0);
+                if !v0.is_finite() {
+                    return Err(format!("expression `{text}` is not finite at t = 0 (value {v0})"));
+                }
+                Ok(f)
+            }
+            TimeFunctionSpec::Table { t, value } => {
+                if t.len() != value.len() || t.is_empty() {
+                    return Err(format!("table needs equally long, non-empty `t` and `value` (got {} and {})", t.len(), value.len()));
+                }
+                if t.windows(2).any(|w| w[1] <= w[0]) {
+                    return Err("table times `t` must be strictly increasing".into());
+                }
+                if t.iter().chain(value).any(|x| !x.is_finite()) {
+                    return Err("table entries must be finite numbers".into());
+                }
+                Ok(TimeFunction::Table { t: t.clone(), v: value.clone() })
+            }
+        }
+    }
+
+    pub fn value(&self, time: f64) -> f64 {
+        match self {
+            TimeFunction::Constant(c) => *c,
+            TimeFunction::Expression { value, rate, .. } => eval(value, rate.is_some(), time),
+            TimeFunction::Table { t, v } => {
+                let (k, s) = locate(t, time);
+                if t.len() == 1 {
+                    v[0]
+                } else {
+                    v[k] + s * (v[k + 1] - v[k])
+                }
+            }
+        }
+    }
+
+    /// Time derivative (for tables: the slope of the segment; 0 outside the table).
+    pub fn rate(&self, time: f64) -> f64 {
+        match self {
+            TimeFunction::Constant(_) => 0.0,
+            TimeFunction::Expression { rate, .. } => rate.as_ref().map_or(0.0, |r| eval(r, true, time)),
+            TimeFunction::Table { t, v } => {
+                if t.len() == 1 || time < t[0] || time > t[t.len() - 1] {
+                    return 0.0;
+                }
+                let (k, _) = locate(t, time);
+                (v[k + 1] - v[k]) / (t[k + 1] - t[k])
+            }
+        }
+    }
+
+    pub fn accel(&self, time: f64) -> f64 {
+        match self {
+            TimeFunction::Expression { accel: Some(a), .. } => eval(a, true, time),
+            _ => 0.0,
+        }
+    }
+}
+
+fn eval(f: &FlatEx<f64>, has_t: bool, time: f64) -> f64 {
+    // The derivative of an expression may no longer mention `t` (e.g. d/dt of 2t).
+    let r = if has_t && !f.var_names().is_empty() { f.eval(&[time]) } else { f.eval(&[]) };
+    r.unwrap_or(f64::NAN)
+}
+
+/// Segment index and fraction for linear interpolation, clamped to the table.
+fn locate(t: &[f64], time: f64) -> (usize, f64) {
+    if t.len() == 1 || time <= t[0] {
+        return (0, 0.0);
+    }
+    if time >= t[t.len() - 1] {
+        return (t.len().saturating_sub(2), 1.0);
+    }
+    let k = t.partition_point(|&x| x <= time) - 1;
+    (k, (time - t[k]) / (t[k + 1] - t[k]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn expr(s: &str) -> Result<TimeFunction, String> {
+        TimeFunction::new(&TimeFunctionSpec::Expression(s.into()))
+    }
+
+    #[test]
+    fn vdtr_nacelle_tilt_expression_and_its_rate() {
+        let f = expr("0.25*pi*(1 - sin(2*pi*(t/40 + 0.25)))").unwrap();
+        let g = |t: f64| 0.25 * std::f64::consts::PI * (1.0 - (2.0 * std::f64::consts::PI * (t / 40.0 + 0.25)).sin());
+        for t in [0.0, 3.7, 20.0] {
+            assert!((f.value(t) - g(t)).abs() < 1e-14);
+            let fd = (g(t + 1e-5) - g(t - 1e-5)) / 2e-5;
+            assert!((f.rate(t) - fd).abs() < 1e-9, "rate at {t}");
+        }
+        assert!((f.value(20.0) - 0.5 * std::f64::consts::PI).abs() < 1e-14);
+    }
+
+    #[test]
+    fn malformed_or_foreign_expressions_are_errors() {
+        assert!(expr("sin(t").unwrap_err().contains("cannot parse"));
+        assert!(expr("x + t").unwrap_err().contains("unknown name `x`"));
+        assert!(expr("import os").is_err());
+        assert!(expr("log(t - 1)").unwrap_err().contains("not finite"));
+    }
+
+    #[test]
+    fn expression_without_t_and_linear_rate() {
+        let f = expr("2*pi").unwrap();
+        assert_eq!(f.rate(1.0), 0.0);
+        let g = expr("3*t + 1").unwrap();
+        assert_eq!(g.rate(5.0), 3.0);
+        assert_eq!(g.accel(5.0), 0.0);
+    }
+
+    #[test]
+    fn table_interpolates_and_holds_ends() {
+        let f = TimeFunction::new(&TimeFunctionSpec::Table { t: vec![0.0, 1.0, 3.0], value: vec![0.0, 2.0, 0.0] }).unwrap();
+        assert_eq!(f.value(0.5), 1.0);
+        assert_eq!(f.value(2.0), 1.0);
+        assert_eq!(f.value(10.0), 0.0);
+        assert_eq!(f.rate(0.5), 2.0);
+        assert_eq!(f.rate(2.0), -1.0);
+        assert!(TimeFunction::new(&TimeFunctionSpec::Table { t: vec![0.0, 0.0], value: vec![1.0, 2.0] }).is_err());
+    }
+}
