@@ -118,7 +118,9 @@ pub fn log_map(rm: &M3<f64>) -> V3<f64> {
             b.0[i][j] = 0.5 * (rm.0[i][j] + rm.0[j][i]) - if i == j { c } else { 0.0 };
         }
     }
-    let k = (0..3).max_by(|&i, &j| b.0[i][i].total_cmp(&b.0[j][j])).unwrap();
+    let k = (0..3)
+        .max_by(|&i, &j| b.0[i][i].total_cmp(&b.0[j][j]))
+        .unwrap();
     let mut n = b.col(k).scale_f(1.0 / b.0[k][k].max(1e-300).sqrt());
     n = n.scale_f(1.0 / n.norm());
     // The sign of n follows the (small) skew part.
@@ -134,7 +136,8 @@ pub fn wiener_milenkovic<T: Real>(c: &V3<T>) -> M3<T> {
     let cc = c.norm_sq();
     let c0 = T::cst(2.0) - cc / 8.0;
     let den = (T::cst(4.0) - c0) * (T::cst(4.0) - c0);
-    (M3::identity().scale(c0 * c0 - cc) + c.outer(c).scale_f(2.0) + c.tilde().scale(c0 * 2.0)).scale(T::one() / den)
+    (M3::identity().scale(c0 * c0 - cc) + c.outer(c).scale_f(2.0) + c.tilde().scale(c0 * 2.0))
+        .scale(T::one() / den)
 }
 
 /// Wiener–Milenkovic parameters of a rotation (angle in `[0, π]`, so `|c| ≤ 4`).
@@ -197,11 +200,14 @@ mod tests {
     }
     /// Rodrigues parameters of rotations up to 170°: |r| ≤ 2 tan(85°) ≈ 22.9.
     fn arb_r() -> impl Strategy<Value = V3<f64>> {
-        (prop::array::uniform3(-1.0f64..1.0), 0.0f64..170.0).prop_filter_map("nonzero axis", |(a, deg)| {
-            let n = v(a);
-            let l = n.norm();
-            (l > 1e-3).then(|| n.scale_f(2.0 * (deg.to_radians() / 2.0).tan() / l))
-        })
+        (prop::array::uniform3(-1.0f64..1.0), 0.0f64..170.0).prop_filter_map(
+            "nonzero axis",
+            |(a, deg)| {
+                let n = v(a);
+                let l = n.norm();
+                (l > 1e-3).then(|| n.scale_f(2.0 * (deg.to_radians() / 2.0).tan() / l))
+            },
+        )
     }
 
     // Round-off of these identities grows with |r|² (entries of r̃r̃): the bound below is

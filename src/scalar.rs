@@ -138,7 +138,10 @@ impl<const N: usize> Mul for Dual<N> {
         for (k, d) in du.iter_mut().enumerate() {
             *d = self.du[k] * o.re + self.re * o.du[k];
         }
-        Self { re: self.re * o.re, du }
+        Self {
+            re: self.re * o.re,
+            du,
+        }
     }
 }
 impl<const N: usize> Div for Dual<N> {
@@ -239,7 +242,10 @@ impl<const N: usize> Real for Dual<N> {
         for (k, d) in du.iter_mut().enumerate() {
             *d = (x.re * self.du[k] - self.re * x.du[k]) / r2;
         }
-        Self { re: self.re.atan2(x.re), du }
+        Self {
+            re: self.re.atan2(x.re),
+            du,
+        }
     }
 }
 

@@ -19,7 +19,10 @@ pub enum TimeFunction {
         accel: Option<FlatEx<f64>>,
     },
     /// Piecewise-linear table; constant beyond its ends.
-    Table { t: Vec<f64>, v: Vec<f64> },
+    Table {
+        t: Vec<f64>,
+        v: Vec<f64>,
+    },
 }
 
 /// Replace the identifier `pi` by exmex's `PI` so users can write the natural spelling.
@@ -62,7 +65,8 @@ impl TimeFunction {
             }
             TimeFunctionSpec::Expression(text) => {
                 let norm = normalise_constants(text);
-                let value = exmex::parse::<f64>(&norm).map_err(|e| format!("cannot parse expression `{text}`: {}", e.msg()))?;
+                let value = exmex::parse::<f64>(&norm)
+                    .map_err(|e| format!("cannot parse expression `{text}`: {}", e.msg()))?;
                 let names = value.var_names().to_vec();
                 if let Some(bad) = names.iter().find(|n| n.as_str() != "t") {
                     return Err(format!(
@@ -72,21 +76,38 @@ impl TimeFunction {
                 let (rate, accel) = if names.is_empty() {
                     (None, None)
                 } else {
-                    let r = value.clone().partial(0).map_err(|e| format!("cannot differentiate `{text}`: {}", e.msg()))?;
-                    let a = r.clone().partial(0).map_err(|e| format!("cannot differentiate `{text}` twice: {}", e.msg()))?;
+                    let r = value
+                        .clone()
+                        .partial(0)
+                        .map_err(|e| format!("cannot differentiate `{text}`: {}", e.msg()))?;
+                    let a = r
+                        .clone()
+                        .partial(0)
+                        .map_err(|e| format!("cannot differentiate `{text}` twice: {}", e.msg()))?;
                     (Some(r), Some(a))
                 };
-                let f = TimeFunction::Expression { text: text.clone(), value, rate, accel };
+                let f = TimeFunction::Expression {
+                    text: text.clone(),
+                    value,
+                    rate,
+                    accel,
+                };
                 // Evaluate once to catch e.g. `log(t - 1)` at t = 0 before a run starts.
                 let v0 = f.value(0.0);
                 if !v0.is_finite() {
-                    return Err(format!("expression `{text}` is not finite at t = 0 (value {v0})"));
+                    return Err(format!(
+                        "expression `{text}` is not finite at t = 0 (value {v0})"
+                    ));
                 }
                 Ok(f)
             }
             TimeFunctionSpec::Table { t, value } => {
                 if t.len() != value.len() || t.is_empty() {
-                    return Err(format!("table needs equally long, non-empty `t` and `value` (got {} and {})", t.len(), value.len()));
+                    return Err(format!(
+                        "table needs equally long, non-empty `t` and `value` (got {} and {})",
+                        t.len(),
+                        value.len()
+                    ));
                 }
                 if t.windows(2).any(|w| w[1] <= w[0]) {
                     return Err("table times `t` must be strictly increasing".into());
@@ -94,7 +115,10 @@ impl TimeFunction {
                 if t.iter().chain(value).any(|x| !x.is_finite()) {
                     return Err("table entries must be finite numbers".into());
                 }
-                Ok(TimeFunction::Table { t: t.clone(), v: value.clone() })
+                Ok(TimeFunction::Table {
+                    t: t.clone(),
+                    v: value.clone(),
+                })
             }
         }
     }
@@ -118,7 +142,9 @@ impl TimeFunction {
     pub fn rate(&self, time: f64) -> f64 {
         match self {
             TimeFunction::Constant(_) => 0.0,
-            TimeFunction::Expression { rate, .. } => rate.as_ref().map_or(0.0, |r| eval(r, true, time)),
+            TimeFunction::Expression { rate, .. } => {
+                rate.as_ref().map_or(0.0, |r| eval(r, true, time))
+            }
             TimeFunction::Table { t, v } => {
                 if t.len() == 1 || time < t[0] || time > t[t.len() - 1] {
                     return 0.0;
@@ -139,7 +165,11 @@ impl TimeFunction {
 
 fn eval(f: &FlatEx<f64>, has_t: bool, time: f64) -> f64 {
     // The derivative of an expression may no longer mention `t` (e.g. d/dt of 2t).
-    let r = if has_t && !f.var_names().is_empty() { f.eval(&[time]) } else { f.eval(&[]) };
+    let r = if has_t && !f.var_names().is_empty() {
+        f.eval(&[time])
+    } else {
+        f.eval(&[])
+    };
     r.unwrap_or(f64::NAN)
 }
 
@@ -166,7 +196,10 @@ mod tests {
     #[test]
     fn vdtr_nacelle_tilt_expression_and_its_rate() {
         let f = expr("0.25*pi*(1 - sin(2*pi*(t/40 + 0.25)))").unwrap();
-        let g = |t: f64| 0.25 * std::f64::consts::PI * (1.0 - (2.0 * std::f64::consts::PI * (t / 40.0 + 0.25)).sin());
+        let g = |t: f64| {
+            0.25 * std::f64::consts::PI
+                * (1.0 - (2.0 * std::f64::consts::PI * (t / 40.0 + 0.25)).sin())
+        };
         for t in [0.0, 3.7, 20.0] {
             assert!((f.value(t) - g(t)).abs() < 1e-14);
             let fd = (g(t + 1e-5) - g(t - 1e-5)) / 2e-5;
@@ -194,12 +227,20 @@ mod tests {
 
     #[test]
     fn table_interpolates_and_holds_ends() {
-        let f = TimeFunction::new(&TimeFunctionSpec::Table { t: vec![0.0, 1.0, 3.0], value: vec![0.0, 2.0, 0.0] }).unwrap();
+        let f = TimeFunction::new(&TimeFunctionSpec::Table {
+            t: vec![0.0, 1.0, 3.0],
+            value: vec![0.0, 2.0, 0.0],
+        })
+        .unwrap();
         assert_eq!(f.value(0.5), 1.0);
         assert_eq!(f.value(2.0), 1.0);
         assert_eq!(f.value(10.0), 0.0);
         assert_eq!(f.rate(0.5), 2.0);
         assert_eq!(f.rate(2.0), -1.0);
-        assert!(TimeFunction::new(&TimeFunctionSpec::Table { t: vec![0.0, 0.0], value: vec![1.0, 2.0] }).is_err());
+        assert!(TimeFunction::new(&TimeFunctionSpec::Table {
+            t: vec![0.0, 0.0],
+            value: vec![1.0, 2.0]
+        })
+        .is_err());
     }
 }

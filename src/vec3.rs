@@ -174,7 +174,8 @@ impl<T: Real> M3<T> {
         let mut r = Self::zero();
         for i in 0..3 {
             for j in 0..3 {
-                r.0[i][j] = self.0[i][0] * o.0[0][j] + self.0[i][1] * o.0[1][j] + self.0[i][2] * o.0[2][j];
+                r.0[i][j] =
+                    self.0[i][0] * o.0[0][j] + self.0[i][1] * o.0[1][j] + self.0[i][2] * o.0[2][j];
             }
         }
         r
@@ -196,7 +197,8 @@ impl<T: Real> M3<T> {
     }
     pub fn det(&self) -> T {
         let m = &self.0;
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
             + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
     }
     /// Inverse by cofactors (3×3 only; the caller guarantees a non-singular matrix).

@@ -26,7 +26,13 @@ impl CoordinateSpring {
         if layout.ed() {
             unknowns.push(layout.coord_jump(coord));
         }
-        CoordinateSpring { coord, stiffness, damping, rest, unknowns }
+        CoordinateSpring {
+            coord,
+            stiffness,
+            damping,
+            rest,
+            unknowns,
+        }
     }
 
     /// The strain jump `ε_j − ε_i` of the ED scheme for a converged step.
@@ -80,11 +86,21 @@ pub struct CoordinateDrive {
 impl CoordinateDrive {
     pub fn new(coord: usize, row: usize, function: TimeFunction, layout: &Layout) -> Self {
         let unknowns = if layout.ed() {
-            vec![layout.coord_delta(coord), layout.coord_jump(coord), layout.mult(row), layout.mult_jump(row)]
+            vec![
+                layout.coord_delta(coord),
+                layout.coord_jump(coord),
+                layout.mult(row),
+                layout.mult_jump(row),
+            ]
         } else {
             vec![layout.coord_delta(coord), layout.mult(row)]
         };
-        CoordinateDrive { coord, row, function, unknowns }
+        CoordinateDrive {
+            coord,
+            row,
+            function,
+            unknowns,
+        }
     }
 
     /// Work done by the drive over a converged step: from the energy identity, the terms the
@@ -104,7 +120,11 @@ impl CoordinateDrive {
 
     /// The driving force/torque on the coordinate (positive drives q up): `−λ`.
     pub fn force(&self, ctx: &StepCtx, y: &[f64]) -> f64 {
-        let m = if ctx.ed() { self.unknowns[2] } else { self.unknowns[1] };
+        let m = if ctx.ed() {
+            self.unknowns[2]
+        } else {
+            self.unknowns[1]
+        };
         -ctx.s * y[m]
     }
 }
@@ -144,11 +164,27 @@ mod tests {
 
     #[test]
     fn spring_and_drive_tangents_match_finite_differences() {
-        let state = State { t: 0.3, nodes: vec![], coords: vec![0.4], coord_rates: vec![1.0], lambda: vec![0.0] };
+        let state = State {
+            t: 0.3,
+            nodes: vec![],
+            coords: vec![0.4],
+            coord_rates: vec![1.0],
+            lambda: vec![0.0],
+        };
         for scheme in [Scheme::Ep, Scheme::Ed] {
             let layout = Layout::new(scheme, 0, 1, 1);
-            let ctx = StepCtx { layout, h: 0.02, t_i: 0.3, t_f: 0.32, s: 50.0, state: &state, gravity: V3([0.0; 3]) };
-            let y: Vec<f64> = (0..layout.n_unknowns()).map(|i| 0.1 + 0.05 * i as f64).collect();
+            let ctx = StepCtx {
+                layout,
+                h: 0.02,
+                t_i: 0.3,
+                t_f: 0.32,
+                s: 50.0,
+                state: &state,
+                gravity: V3([0.0; 3]),
+            };
+            let y: Vec<f64> = (0..layout.n_unknowns())
+                .map(|i| 0.1 + 0.05 * i as f64)
+                .collect();
             let sp = CoordinateSpring::new(0, 300.0, 4.0, 0.1, &layout);
             assert!(tangent_error(&sp, &ctx, &y) < 1e-8);
             let f = TimeFunction::new(&TimeFunctionSpec::Expression("sin(3*t)".into())).unwrap();

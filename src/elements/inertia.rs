@@ -24,12 +24,22 @@ pub struct NodeInertia {
 }
 
 impl NodeInertia {
-    pub fn new(node: usize, mass: f64, inertia: M3<f64>, layout: &crate::system::layout::Layout) -> Self {
+    pub fn new(
+        node: usize,
+        mass: f64,
+        inertia: M3<f64>,
+        layout: &crate::system::layout::Layout,
+    ) -> Self {
         let mut unknowns: Vec<usize> = (0..6).map(|k| layout.node_delta(node) + k).collect();
         if layout.ed() {
             unknowns.extend((0..6).map(|k| layout.node_jump(node) + k));
         }
-        NodeInertia { node, mass, inertia, unknowns }
+        NodeInertia {
+            node,
+            mass,
+            inertia,
+            unknowns,
+        }
     }
 }
 
@@ -38,7 +48,9 @@ impl NodeInertia {
 fn rotational_row<T: Real>(j: &M3<T>, r: &V3<T>, wa: &V3<T>, wb: &V3<T>, h: f64) -> V3<T> {
     let dw = j.mul_v(&(*wb - *wa));
     let gyro = r.cross(&j.mul_v(&(*wb + *wa))).scale_f(0.5);
-    inv_i_minus_half_tilde(r).mul_v(&(dw + gyro)).scale_f(1.0 / h)
+    inv_i_minus_half_tilde(r)
+        .mul_v(&(dw + gyro))
+        .scale_f(1.0 / h)
 }
 
 impl Kernel for NodeInertia {
@@ -56,7 +68,11 @@ impl Kernel for NodeInertia {
         let vi = V3::<T>::from_f64(ni.v);
         let wi = V3::<T>::from_f64(ni.w);
         // Velocities at f from Δ = h (V_start + V_f)/2, V_start = V_i (EP) or V_j (ED).
-        let (vs, ws) = if ctx.ed() { (v3(y, 6), v3(y, 9)) } else { (vi, wi) };
+        let (vs, ws) = if ctx.ed() {
+            (v3(y, 6), v3(y, 9))
+        } else {
+            (vi, wi)
+        };
         let vf = dx.scale_f(2.0 / h) - vs;
         let wf = r.scale_f(2.0 / h) - ws;
         let g = V3::<T>::from_f64(ctx.gravity.scale_f(m));
@@ -88,12 +104,28 @@ mod tests {
             v: V3([1.0, -2.0, 0.5]),
             w: V3([0.3, 5.0, -1.0]),
         };
-        let state = State { t: 0.0, nodes: vec![node], coords: vec![], coord_rates: vec![], lambda: vec![] };
+        let state = State {
+            t: 0.0,
+            nodes: vec![node],
+            coords: vec![],
+            coord_rates: vec![],
+            lambda: vec![],
+        };
         for scheme in [Scheme::Ep, Scheme::Ed] {
             let layout = Layout::new(scheme, 1, 0, 0);
             let k = NodeInertia::new(0, 1.7, jm, &layout);
-            let ctx = StepCtx { layout, h: 0.01, t_i: 0.0, t_f: 0.01, s: 1.0, state: &state, gravity: V3([0.0, 0.0, -9.81]) };
-            let y: Vec<f64> = (0..layout.n_unknowns()).map(|i| 0.01 * ((i as f64) * 0.7).sin()).collect();
+            let ctx = StepCtx {
+                layout,
+                h: 0.01,
+                t_i: 0.0,
+                t_f: 0.01,
+                s: 1.0,
+                state: &state,
+                gravity: V3([0.0, 0.0, -9.81]),
+            };
+            let y: Vec<f64> = (0..layout.n_unknowns())
+                .map(|i| 0.01 * ((i as f64) * 0.7).sin())
+                .collect();
             let e = tangent_error(&k, &ctx, &y);
             // Central differences with step 1e-6: truncation ~1e-12·|J'''|, round-off ~1e-10·|R|/|J|.
             assert!(e < 1e-7, "{scheme:?}: {e}");

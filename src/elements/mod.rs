@@ -46,10 +46,19 @@ pub trait Kernel {
 
 /// Adds the kernel's residual into `res` and, if `jac` is given, its exact tangent block into
 /// the sparse values at the kernel's precomputed positions (row-major `n × n`).
-pub fn eval_kernel<K: Kernel>(k: &K, ctx: &StepCtx, y: &[f64], res: &mut [f64], jac: Option<(&mut [f64], &[usize])>) {
+pub fn eval_kernel<K: Kernel>(
+    k: &K,
+    ctx: &StepCtx,
+    y: &[f64],
+    res: &mut [f64],
+    jac: Option<(&mut [f64], &[usize])>,
+) {
     let idx = k.unknowns();
     let n = idx.len();
-    assert!(n <= MAX_LOCAL, "kernel block of {n} unknowns exceeds MAX_LOCAL");
+    assert!(
+        n <= MAX_LOCAL,
+        "kernel block of {n} unknowns exceeds MAX_LOCAL"
+    );
     match jac {
         None => {
             let mut yl = [0.0f64; MAX_LOCAL];

@@ -23,10 +23,19 @@ impl ConstraintLaw for Clamp {
             out[3 + r] = dot_value(s, &self.at, *a, *b);
         }
     }
-    fn discrete_gradient<T: Real>(&self, si: &JointState<T>, sf: &JointState<T>, out: &mut Rows<T>) {
+    fn discrete_gradient<T: Real>(
+        &self,
+        si: &JointState<T>,
+        sf: &JointState<T>,
+        out: &mut Rows<T>,
+    ) {
         points_gradient(si, sf, &self.at, out, 0);
         for (r, (a, b)) in PAIRS.iter().enumerate() {
-            add_rotation_pair(&mut out[3 + r], dot_mid(si, sf, &self.at, *a, *b).0, T::one());
+            add_rotation_pair(
+                &mut out[3 + r],
+                dot_mid(si, sf, &self.at, *a, *b).0,
+                T::one(),
+            );
         }
     }
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
@@ -47,8 +56,14 @@ mod tests {
     #[test]
     fn discrete_gradient_exact_and_rate_consistent() {
         let at = [
-            Attachment { offset: V3([0.3, -0.2, 0.5]), triad: exp_map(&V3([0.1, 0.2, 0.3])) },
-            Attachment { offset: V3([-0.4, 0.1, 0.2]), triad: exp_map(&V3([0.0, -0.5, 0.3])) },
+            Attachment {
+                offset: V3([0.3, -0.2, 0.5]),
+                triad: exp_map(&V3([0.1, 0.2, 0.3])),
+            },
+            Attachment {
+                offset: V3([-0.4, 0.1, 0.2]),
+                triad: exp_map(&V3([0.0, -0.5, 0.3])),
+            },
         ];
         assert_law(&Clamp { at });
     }

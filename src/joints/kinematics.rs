@@ -27,7 +27,13 @@ pub fn points_value<T: Real>(s: &JointState<T>, at: &[Attachment; 2], out: &mut 
 
 /// Exact discrete gradient of coincident points: `(R_f − R_i) p = −(R_m p)~ ρ` with
 /// `R_m = (R_i + R_f)/2` (identity A5/A6), so the rows are `[−I, (R_m p₁)~, I, −(R_m p₂)~]`.
-pub fn points_gradient<T: Real>(si: &JointState<T>, sf: &JointState<T>, at: &[Attachment; 2], out: &mut Rows<T>, row: usize) {
+pub fn points_gradient<T: Real>(
+    si: &JointState<T>,
+    sf: &JointState<T>,
+    at: &[Attachment; 2],
+    out: &mut Rows<T>,
+    row: usize,
+) {
     for k in 0..2 {
         let sign = if k == 0 { -1.0 } else { 1.0 };
         let rm = (si.r[k] + sf.r[k]).scale_f(0.5);
@@ -42,7 +48,12 @@ pub fn points_gradient<T: Real>(si: &JointState<T>, sf: &JointState<T>, at: &[At
 }
 
 /// Rate of coincident points: `Ċ = v₂ + ω₂ × R₂p₂ − v₁ − ω₁ × R₁p₁`.
-pub fn points_rate<T: Real>(s: &JointState<T>, at: &[Attachment; 2], out: &mut Rows<T>, row: usize) {
+pub fn points_rate<T: Real>(
+    s: &JointState<T>,
+    at: &[Attachment; 2],
+    out: &mut Rows<T>,
+    row: usize,
+) {
     for k in 0..2 {
         let sign = if k == 0 { -1.0 } else { 1.0 };
         let arm = s.r[k].mul_v(&V3::from_f64(at[k].offset)).tilde();
@@ -62,7 +73,13 @@ pub fn dot_value<T: Real>(s: &JointState<T>, at: &[Attachment; 2], alpha: usize,
 
 /// `h_m = ẽ_αmᵏ e_βmˡ` with mid-step unit vectors `e_m = (e_i + e_f)/2` and `g_m`: eq. (15),
 /// `g_f − g_i = (ρᵏ − ρˡ)ᵀ h_m`.
-pub fn dot_mid<T: Real>(si: &JointState<T>, sf: &JointState<T>, at: &[Attachment; 2], alpha: usize, beta: usize) -> (V3<T>, T) {
+pub fn dot_mid<T: Real>(
+    si: &JointState<T>,
+    sf: &JointState<T>,
+    at: &[Attachment; 2],
+    alpha: usize,
+    beta: usize,
+) -> (V3<T>, T) {
     let ek = (unit(si, 0, &at[0], alpha) + unit(sf, 0, &at[0], alpha)).scale_f(0.5);
     let el = (unit(si, 1, &at[1], beta) + unit(sf, 1, &at[1], beta)).scale_f(0.5);
     let gm = (dot_value(si, at, alpha, beta) + dot_value(sf, at, alpha, beta)) * 0.5;

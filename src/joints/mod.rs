@@ -49,7 +49,10 @@ pub struct Attachment {
 impl Attachment {
     /// Spatial offset `R p` and triad `R Q` for a node rotation `R`.
     pub fn place<T: Real>(&self, r: &M3<T>) -> (V3<T>, M3<T>) {
-        (r.mul_v(&V3::from_f64(self.offset)), r.mul_m(&M3::from_f64(&self.triad)))
+        (
+            r.mul_v(&V3::from_f64(self.offset)),
+            r.mul_m(&M3::from_f64(&self.triad)),
+        )
     }
 }
 
@@ -96,7 +99,12 @@ impl ConstraintLaw for JointLaw {
     fn value<T: Real>(&self, s: &JointState<T>, out: &mut [T]) {
         dispatch!(self, j => j.value(s, out))
     }
-    fn discrete_gradient<T: Real>(&self, si: &JointState<T>, sf: &JointState<T>, out: &mut Rows<T>) {
+    fn discrete_gradient<T: Real>(
+        &self,
+        si: &JointState<T>,
+        sf: &JointState<T>,
+        out: &mut Rows<T>,
+    ) {
         dispatch!(self, j => j.discrete_gradient(si, sf, out))
     }
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
@@ -140,7 +148,14 @@ fn zero_rows<T: Real>() -> Rows<T> {
 }
 
 impl JointKernel {
-    pub fn new(name: String, law: JointLaw, sides: [Side; 2], coords: Vec<usize>, row0: usize, layout: &Layout) -> Self {
+    pub fn new(
+        name: String,
+        law: JointLaw,
+        sides: [Side; 2],
+        coords: Vec<usize>,
+        row0: usize,
+        layout: &Layout,
+    ) -> Self {
         assert_eq!(coords.len(), law.n_coords());
         let ed = layout.ed();
         let mut unknowns = Vec::new();
@@ -169,7 +184,17 @@ impl JointKernel {
                 unknowns.push(layout.mult_jump(row0 + r));
             }
         }
-        JointKernel { name, law, sides, coords, row0, unknowns, slots, coord_slot, mult_slot }
+        JointKernel {
+            name,
+            law,
+            sides,
+            coords,
+            row0,
+            unknowns,
+            slots,
+            coord_slot,
+            mult_slot,
+        }
     }
 
     pub fn n_rows(&self) -> usize {
@@ -186,7 +211,11 @@ impl JointKernel {
 
     /// Start state (as `T`) of the joint.
     fn state_i<T: Real>(&self, ctx: &StepCtx) -> JointState<T> {
-        let mut s = JointState { x: [V3::zero(); 2], r: [M3::identity(); 2], q: [T::zero(); MAX_COORDS] };
+        let mut s = JointState {
+            x: [V3::zero(); 2],
+            r: [M3::identity(); 2],
+            q: [T::zero(); MAX_COORDS],
+        };
         for (k, side) in self.sides.iter().enumerate() {
             let (x, r) = match side {
                 Side::Node(a) => (ctx.state.nodes[*a].x, ctx.state.nodes[*a].r),
@@ -202,7 +231,12 @@ impl JointKernel {
     }
 
     /// End state from the local increments; also returns the material `r` of each side.
-    fn state_f<T: Real>(&self, ctx: &StepCtx, si: &JointState<T>, y: &[T]) -> (JointState<T>, [V3<T>; 2]) {
+    fn state_f<T: Real>(
+        &self,
+        ctx: &StepCtx,
+        si: &JointState<T>,
+        y: &[T],
+    ) -> (JointState<T>, [V3<T>; 2]) {
         let mut sf = *si;
         let mut rs = [V3::zero(); 2];
         for k in 0..2 {
@@ -221,7 +255,15 @@ impl JointKernel {
 
     /// Adds `Bᵀ λ` for gradient rows `b` over spatial columns, converting the rotation
     /// columns to material ones with `rot[k]` (`R_i` for B^D and B(q_i), `R_f` for B(q_f)).
-    fn add_forces<T: Real>(&self, ctx: &StepCtx, b: &Rows<T>, lam: &[T], rot: &[M3<T>; 2], jump_rows: bool, out: &mut [T]) {
+    fn add_forces<T: Real>(
+        &self,
+        ctx: &StepCtx,
+        b: &Rows<T>,
+        lam: &[T],
+        rot: &[M3<T>; 2],
+        jump_rows: bool,
+        out: &mut [T],
+    ) {
         let n = self.n_rows();
         let per = Self::per(ctx);
         let mut g = [T::zero(); NCOL];
@@ -231,7 +273,11 @@ impl JointKernel {
             }
         }
         for k in 0..2 {
-            let slot = if jump_rows { self.slots[k].jump } else { self.slots[k].delta };
+            let slot = if jump_rows {
+                self.slots[k].jump
+            } else {
+                self.slots[k].delta
+            };
             if let Some(at) = slot {
                 add3(out, at, v3(&g, 6 * k));
                 add3(out, at + 3, rot[k].tmul_v(&v3(&g, 6 * k + 3)));
@@ -243,7 +289,14 @@ impl JointKernel {
     }
 
     /// `B V` for a velocity given per side as (v, material W) with rotation `rot` to make ω.
-    fn apply_rate<T: Real>(&self, b: &Rows<T>, v: &[(V3<T>, V3<T>); 2], rot: &[M3<T>; 2], qdot: &[T], out: &mut [T]) {
+    fn apply_rate<T: Real>(
+        &self,
+        b: &Rows<T>,
+        v: &[(V3<T>, V3<T>); 2],
+        rot: &[M3<T>; 2],
+        qdot: &[T],
+        out: &mut [T],
+    ) {
         let n = self.n_rows();
         for (r, o) in out.iter_mut().enumerate().take(n) {
             let mut acc = T::zero();
@@ -334,7 +387,11 @@ impl JointKernel {
             Side::Node(a) => (state.nodes[a].x, state.nodes[a].r),
             Side::Ground { x, r } => (x, r),
         };
-        let mut s = JointState { x: [V3::zero(); 2], r: [M3::identity(); 2], q: [0.0; MAX_COORDS] };
+        let mut s = JointState {
+            x: [V3::zero(); 2],
+            r: [M3::identity(); 2],
+            q: [0.0; MAX_COORDS],
+        };
         for k in 0..2 {
             let (x, r) = ctx_nodes(k);
             s.x[k] = x;
@@ -400,7 +457,10 @@ impl Kernel for JointKernel {
         for k in 0..2 {
             if let (Some(d), Some(j)) = (self.slots[k].delta, self.slots[k].jump) {
                 vj[k] = (v3(y, j), v3(y, j + 3));
-                vf[k] = (v3(y, d).scale_f(2.0 / h) - vj[k].0, rs[k].scale_f(2.0 / h) - vj[k].1);
+                vf[k] = (
+                    v3(y, d).scale_f(2.0 / h) - vj[k].0,
+                    rs[k].scale_f(2.0 / h) - vj[k].1,
+                );
             }
         }
         let mut qj = [T::zero(); MAX_COORDS];
@@ -437,7 +497,10 @@ pub mod law_tests {
         }
         JointState {
             x: [V3([s(1.0), s(2.0), s(3.0)]), V3([s(4.0), s(5.0), s(6.0)])],
-            r: [exp_map(&V3([s(7.0), s(8.0), s(9.0)])), exp_map(&V3([s(10.0), s(11.0), s(12.0)]))],
+            r: [
+                exp_map(&V3([s(7.0), s(8.0), s(9.0)])),
+                exp_map(&V3([s(10.0), s(11.0), s(12.0)])),
+            ],
             q,
         }
     }
@@ -503,7 +566,8 @@ pub mod law_tests {
                 let mut bv = 0.0;
                 for k in 0..2 {
                     for c in 0..3 {
-                        bv += rb[r][6 * k + c] * vel.x[k].0[c] + rb[r][6 * k + 3 + c] * vel.x[1 - k].0[c];
+                        bv += rb[r][6 * k + c] * vel.x[k].0[c]
+                            + rb[r][6 * k + 3 + c] * vel.x[1 - k].0[c];
                     }
                 }
                 for c in 0..nq {

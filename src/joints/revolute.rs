@@ -24,9 +24,15 @@ impl ConstraintLaw for Revolute {
         out[3] = dot_value(s, &self.at, 2, 0);
         out[4] = dot_value(s, &self.at, 2, 1);
         let phi = s.q[0];
-        out[5] = dot_value(s, &self.at, 0, 0) * phi.sin() + dot_value(s, &self.at, 0, 1) * phi.cos();
+        out[5] =
+            dot_value(s, &self.at, 0, 0) * phi.sin() + dot_value(s, &self.at, 0, 1) * phi.cos();
     }
-    fn discrete_gradient<T: Real>(&self, si: &JointState<T>, sf: &JointState<T>, out: &mut Rows<T>) {
+    fn discrete_gradient<T: Real>(
+        &self,
+        si: &JointState<T>,
+        sf: &JointState<T>,
+        out: &mut Rows<T>,
+    ) {
         points_gradient(si, sf, &self.at, out, 0);
         add_rotation_pair(&mut out[3], dot_mid(si, sf, &self.at, 2, 0).0, T::one());
         add_rotation_pair(&mut out[4], dot_mid(si, sf, &self.at, 2, 1).0, T::one());
@@ -46,16 +52,20 @@ impl ConstraintLaw for Revolute {
         add_rotation_pair(&mut out[3], dot_h(s, &self.at, 2, 0), T::one());
         add_rotation_pair(&mut out[4], dot_h(s, &self.at, 2, 1), T::one());
         let phi = s.q[0];
-        let h = dot_h(s, &self.at, 0, 0).scale(phi.sin()) + dot_h(s, &self.at, 0, 1).scale(phi.cos());
+        let h =
+            dot_h(s, &self.at, 0, 0).scale(phi.sin()) + dot_h(s, &self.at, 0, 1).scale(phi.cos());
         add_rotation_pair(&mut out[5], h, T::one());
-        out[5][12] = dot_value(s, &self.at, 0, 0) * phi.cos() - dot_value(s, &self.at, 0, 1) * phi.sin();
+        out[5][12] =
+            dot_value(s, &self.at, 0, 0) * phi.cos() - dot_value(s, &self.at, 0, 1) * phi.sin();
     }
 }
 
 /// The relative rotation of side l about e₃ᵏ, for initial values: φ = atan2(e₂ᵏ·e₁ˡ, e₁ᵏ·e₁ˡ).
 pub fn relative_angle(s: &JointState<f64>, at: &[Attachment; 2]) -> f64 {
     let e1l = unit(s, 1, &at[1], 0);
-    unit(s, 0, &at[0], 1).dot(&e1l).atan2(unit(s, 0, &at[0], 0).dot(&e1l))
+    unit(s, 0, &at[0], 1)
+        .dot(&e1l)
+        .atan2(unit(s, 0, &at[0], 0).dot(&e1l))
 }
 
 #[cfg(test)]
@@ -68,8 +78,14 @@ mod tests {
     #[test]
     fn discrete_gradient_exact_and_rate_consistent() {
         let at = [
-            Attachment { offset: V3([0.3, -0.2, 0.5]), triad: exp_map(&V3([0.1, 0.2, 0.3])) },
-            Attachment { offset: V3([-0.4, 0.1, 0.2]), triad: exp_map(&V3([0.0, -0.5, 0.3])) },
+            Attachment {
+                offset: V3([0.3, -0.2, 0.5]),
+                triad: exp_map(&V3([0.1, 0.2, 0.3])),
+            },
+            Attachment {
+                offset: V3([-0.4, 0.1, 0.2]),
+                triad: exp_map(&V3([0.0, -0.5, 0.3])),
+            },
         ];
         assert_law(&Revolute { at });
     }
@@ -78,7 +94,10 @@ mod tests {
     fn phi_is_the_rotation_of_l_about_the_axis() {
         use crate::joints::{JointState, MAX_COORDS};
         use crate::vec3::M3;
-        let at = [Attachment { offset: V3([0.0; 3]), triad: M3::identity() }; 2];
+        let at = [Attachment {
+            offset: V3([0.0; 3]),
+            triad: M3::identity(),
+        }; 2];
         let phi = 0.7;
         let s = JointState {
             x: [V3([0.0; 3]); 2],

@@ -16,7 +16,12 @@ impl ConstraintLaw for Spherical {
     fn value<T: Real>(&self, s: &JointState<T>, out: &mut [T]) {
         points_value(s, &self.at, out);
     }
-    fn discrete_gradient<T: Real>(&self, si: &JointState<T>, sf: &JointState<T>, out: &mut Rows<T>) {
+    fn discrete_gradient<T: Real>(
+        &self,
+        si: &JointState<T>,
+        sf: &JointState<T>,
+        out: &mut Rows<T>,
+    ) {
         points_gradient(si, sf, &self.at, out, 0);
     }
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
@@ -34,8 +39,14 @@ mod tests {
     #[test]
     fn discrete_gradient_exact_and_rate_consistent() {
         let at = [
-            Attachment { offset: V3([0.3, -0.2, 0.5]), triad: exp_map(&V3([0.1, 0.2, 0.3])) },
-            Attachment { offset: V3([-0.4, 0.1, 0.2]), triad: exp_map(&V3([0.0, -0.5, 0.3])) },
+            Attachment {
+                offset: V3([0.3, -0.2, 0.5]),
+                triad: exp_map(&V3([0.1, 0.2, 0.3])),
+            },
+            Attachment {
+                offset: V3([-0.4, 0.1, 0.2]),
+                triad: exp_map(&V3([0.0, -0.5, 0.3])),
+            },
         ];
         assert_law(&Spherical { at });
     }

@@ -19,7 +19,12 @@ impl ConstraintLaw for Universal {
         points_value(s, &self.at, out);
         out[3] = dot_value(s, &self.at, 2, 2);
     }
-    fn discrete_gradient<T: Real>(&self, si: &JointState<T>, sf: &JointState<T>, out: &mut Rows<T>) {
+    fn discrete_gradient<T: Real>(
+        &self,
+        si: &JointState<T>,
+        sf: &JointState<T>,
+        out: &mut Rows<T>,
+    ) {
         points_gradient(si, sf, &self.at, out, 0);
         let (hm, _) = dot_mid(si, sf, &self.at, 2, 2); // eq. (15)
         add_rotation_pair(&mut out[3], hm, T::one());
@@ -40,8 +45,14 @@ mod tests {
     #[test]
     fn discrete_gradient_exact_and_rate_consistent() {
         let at = [
-            Attachment { offset: V3([0.3, -0.2, 0.5]), triad: exp_map(&V3([0.1, 0.2, 0.3])) },
-            Attachment { offset: V3([-0.4, 0.1, 0.2]), triad: exp_map(&V3([0.0, -0.5, 0.3])) },
+            Attachment {
+                offset: V3([0.3, -0.2, 0.5]),
+                triad: exp_map(&V3([0.1, 0.2, 0.3])),
+            },
+            Attachment {
+                offset: V3([-0.4, 0.1, 0.2]),
+                triad: exp_map(&V3([0.0, -0.5, 0.3])),
+            },
         ];
         assert_law(&Universal { at });
     }

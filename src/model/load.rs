@@ -8,7 +8,10 @@ pub fn from_yaml_str(text: &str) -> Result<Model, ModelErrors> {
     let model: Model = serde_path_to_error::deserialize(de).map_err(|e| {
         let path = e.path().to_string();
         let inner = e.into_inner();
-        ModelErrors::one(ModelError::new(if path == "." { String::new() } else { path }, clean(&inner.to_string())))
+        ModelErrors::one(ModelError::new(
+            if path == "." { String::new() } else { path },
+            clean(&inner.to_string()),
+        ))
     })?;
     model.validate()?;
     Ok(model)
@@ -20,7 +23,10 @@ pub fn from_json_str(text: &str) -> Result<Model, ModelErrors> {
     let model: Model = serde_path_to_error::deserialize(&mut de).map_err(|e| {
         let path = e.path().to_string();
         let inner = e.into_inner();
-        ModelErrors::one(ModelError::new(if path == "." { String::new() } else { path }, clean(&inner.to_string())))
+        ModelErrors::one(ModelError::new(
+            if path == "." { String::new() } else { path },
+            clean(&inner.to_string()),
+        ))
     })?;
     model.validate()?;
     Ok(model)

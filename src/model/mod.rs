@@ -114,7 +114,10 @@ pub enum TimeFunctionSpec {
     Constant(f64),
     Expression(String),
     /// Piecewise-linear in `t`, held constant beyond the ends.
-    Table { t: Vec<f64>, value: Vec<f64> },
+    Table {
+        t: Vec<f64>,
+        value: Vec<f64>,
+    },
 }
 
 /// A linear spring and damper on a joint's relative coordinate.

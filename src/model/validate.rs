@@ -14,7 +14,10 @@ pub struct ModelError {
 
 impl ModelError {
     pub fn new(path: impl Into<String>, message: impl Into<String>) -> Self {
-        ModelError { path: path.into(), message: message.into() }
+        ModelError {
+            path: path.into(),
+            message: message.into(),
+        }
     }
 }
 
@@ -88,7 +91,10 @@ impl Checker {
     fn unit(&mut self, path: String, v: &Vec3, what: &str) {
         let n = norm(v);
         if !finite3(v) || (n - 1.0).abs() > UNIT_TOL {
-            self.err(path, format!("must be a unit vector (|{what}| = {n:.6}); divide it by its length"));
+            self.err(
+                path,
+                format!("must be a unit vector (|{what}| = {n:.6}); divide it by its length"),
+            );
         }
     }
     fn time_function(&mut self, path: String, f: &TimeFunctionSpec) {
@@ -110,33 +116,67 @@ impl Model {
             if n.is_empty() {
                 c.err(format!("{path}.name"), "must not be empty");
             } else if n == GROUND {
-                c.err(format!("{path}.name"), "`ground` is reserved for the inertial frame; choose another name");
+                c.err(
+                    format!("{path}.name"),
+                    "`ground` is reserved for the inertial frame; choose another name",
+                );
             } else if let Some(first) = seen.get(n) {
-                c.err(format!("{path}.name"), format!("duplicate name `{n}` (already used by {first}); names must be unique"));
+                c.err(
+                    format!("{path}.name"),
+                    format!("duplicate name `{n}` (already used by {first}); names must be unique"),
+                );
             } else {
                 seen.insert(n.to_string(), path);
             }
         };
         let items = || {
-            let a = self.nodes.iter().enumerate().map(|(i, n)| (format!("nodes[{i}]"), n.name.as_str()));
-            let b = self.bodies.iter().enumerate().map(|(i, n)| (format!("bodies[{i}]"), n.name.as_str()));
-            let j = self.joints.iter().enumerate().map(|(i, n)| (format!("joints[{i}]"), n.name()));
-            let l = self.loads.iter().enumerate().map(|(i, n)| (format!("loads[{i}]"), n.spec().name.as_str()));
-            let s = self.sensors.iter().enumerate().map(|(i, n)| (format!("sensors[{i}]"), n.name()));
+            let a = self
+                .nodes
+                .iter()
+                .enumerate()
+                .map(|(i, n)| (format!("nodes[{i}]"), n.name.as_str()));
+            let b = self
+                .bodies
+                .iter()
+                .enumerate()
+                .map(|(i, n)| (format!("bodies[{i}]"), n.name.as_str()));
+            let j = self
+                .joints
+                .iter()
+                .enumerate()
+                .map(|(i, n)| (format!("joints[{i}]"), n.name()));
+            let l = self
+                .loads
+                .iter()
+                .enumerate()
+                .map(|(i, n)| (format!("loads[{i}]"), n.spec().name.as_str()));
+            let s = self
+                .sensors
+                .iter()
+                .enumerate()
+                .map(|(i, n)| (format!("sensors[{i}]"), n.name()));
             a.chain(b).chain(j).chain(l).chain(s).collect::<Vec<_>>()
         };
         for (path, n) in items() {
             name(&mut c, path, n);
         }
 
-        let node_names: HashMap<&str, usize> = self.nodes.iter().enumerate().map(|(i, n)| (n.name.as_str(), i)).collect();
+        let node_names: HashMap<&str, usize> = self
+            .nodes
+            .iter()
+            .enumerate()
+            .map(|(i, n)| (n.name.as_str(), i))
+            .collect();
         let node_ref = |c: &mut Checker, path: String, n: &str, allow_ground: bool| {
             if n == GROUND {
                 if !allow_ground {
                     c.err(path, "cannot be `ground` here; give a node name");
                 }
             } else if !node_names.contains_key(n) {
-                c.err(path, format!("refers to node `{n}`, which is not defined in `nodes`"));
+                c.err(
+                    path,
+                    format!("refers to node `{n}`, which is not defined in `nodes`"),
+                );
             }
         };
 
@@ -147,12 +187,24 @@ impl Model {
             c.vec3(format!("{p}.angular_velocity"), &n.angular_velocity);
             let o = &n.orientation;
             if o.matrix.is_some() && o.rotation_vector.is_some() {
-                c.err(format!("{p}.orientation"), format!("node `{}`: give either `matrix` or `rotation_vector`, not both", n.name));
+                c.err(
+                    format!("{p}.orientation"),
+                    format!(
+                        "node `{}`: give either `matrix` or `rotation_vector`, not both",
+                        n.name
+                    ),
+                );
             }
             if let Some(m) = &o.matrix {
                 let r = crate::vec3::M3(*m);
                 if let Err(e) = crate::rotation::check_rotation(&r, 1e-9) {
-                    c.err(format!("{p}.orientation.matrix"), format!("node `{}`: {e}; columns must be orthonormal unit vectors", n.name));
+                    c.err(
+                        format!("{p}.orientation.matrix"),
+                        format!(
+                            "node `{}`: {e}; columns must be orthonormal unit vectors",
+                            n.name
+                        ),
+                    );
                 }
             }
             if let Some(v) = &o.rotation_vector {
@@ -164,31 +216,50 @@ impl Model {
             let p = format!("bodies[{i}]");
             node_ref(&mut c, format!("{p}.node"), &b.node, false);
             if !(b.mass.is_finite() && b.mass > 0.0) {
-                c.err(format!("{p}.mass"), format!("body `{}`: mass must be positive (got {})", b.name, b.mass));
+                c.err(
+                    format!("{p}.mass"),
+                    format!("body `{}`: mass must be positive (got {})", b.name, b.mass),
+                );
             }
             let m = b.inertia.matrix();
             let finite = m.iter().flatten().all(|x| x.is_finite());
             let scale = m.iter().flatten().fold(0.0f64, |a, x| a.max(x.abs()));
             let sym = (0..3).all(|r| (0..3).all(|s| (m[r][s] - m[s][r]).abs() <= 1e-9 * scale));
             if !finite || !sym {
-                c.err(format!("{p}.inertia"), format!("body `{}`: inertia must be a symmetric matrix of finite numbers", b.name));
+                c.err(
+                    format!("{p}.inertia"),
+                    format!(
+                        "body `{}`: inertia must be a symmetric matrix of finite numbers",
+                        b.name
+                    ),
+                );
             } else if !is_spd(&m) {
                 c.err(
                     format!("{p}.inertia"),
-                    format!("body `{}`: inertia must be positive definite (all principal moments > 0)", b.name),
+                    format!(
+                        "body `{}`: inertia must be positive definite (all principal moments > 0)",
+                        b.name
+                    ),
                 );
             }
             c.vec3(format!("{p}.cm_offset"), &b.cm_offset);
         }
 
-        let joint_names: HashMap<&str, &Joint> = self.joints.iter().map(|j| (j.name(), j)).collect();
+        let joint_names: HashMap<&str, &Joint> =
+            self.joints.iter().map(|j| (j.name(), j)).collect();
         for (i, j) in self.joints.iter().enumerate() {
             let p = format!("joints[{i}]");
             let (n1, n2) = j.nodes();
             node_ref(&mut c, format!("{p}.node1"), n1, true);
             node_ref(&mut c, format!("{p}.node2"), n2, true);
             if n1 == n2 {
-                c.err(format!("{p}.node2"), format!("joint `{}` connects `{n1}` to itself; node1 and node2 must differ", j.name()));
+                c.err(
+                    format!("{p}.node2"),
+                    format!(
+                        "joint `{}` connects `{n1}` to itself; node1 and node2 must differ",
+                        j.name()
+                    ),
+                );
             }
             let pos = match j {
                 Joint::Spherical(s) => s.position,
@@ -208,7 +279,10 @@ impl Model {
                     if let Some(s) = &r.spring {
                         for (f, v) in [("stiffness", s.stiffness), ("damping", s.damping)] {
                             if !(v.is_finite() && v >= 0.0) {
-                                c.err(format!("{p}.spring.{f}"), format!("joint `{}`: must be ≥ 0 (got {v})", r.name));
+                                c.err(
+                                    format!("{p}.spring.{f}"),
+                                    format!("joint `{}`: must be ≥ 0 (got {v})", r.name),
+                                );
                             }
                         }
                         if !s.rest.is_finite() {
@@ -268,14 +342,20 @@ impl Model {
 
         let s = &self.simulation;
         if !(s.t_end.is_finite() && s.t_end > 0.0) {
-            c.err("simulation.t_end", format!("must be positive (got {})", s.t_end));
+            c.err(
+                "simulation.t_end",
+                format!("must be positive (got {})", s.t_end),
+            );
         }
         if !(s.dt.is_finite() && s.dt > 0.0) {
             c.err("simulation.dt", format!("must be positive (got {})", s.dt));
         } else if let Some(o) = s.output_dt {
             let k = (o / s.dt).round();
             if !(o.is_finite() && o > 0.0) || k < 1.0 || (o - k * s.dt).abs() > 1e-9 * o {
-                c.err("simulation.output_dt", format!("must be a positive multiple of dt = {} (got {o})", s.dt));
+                c.err(
+                    "simulation.output_dt",
+                    format!("must be a positive multiple of dt = {} (got {o})", s.dt),
+                );
             }
         }
         if !(s.newton_tol.is_finite() && s.newton_tol > 0.0 && s.newton_tol < 1.0) {

@@ -27,7 +27,12 @@ pub enum RowOwner {
 
 impl Layout {
     pub fn new(scheme: Scheme, n_nodes: usize, n_coords: usize, n_rows: usize) -> Self {
-        Layout { scheme, n_nodes, n_coords, n_rows }
+        Layout {
+            scheme,
+            n_nodes,
+            n_coords,
+            n_rows,
+        }
     }
     #[inline]
     pub fn ed(&self) -> bool {
@@ -79,12 +84,23 @@ impl Layout {
         if i < nn {
             let node = i / (6 * p);
             let k = i % (6 * p);
-            return if k < 6 { RowOwner::NodeForce { node, component: k } } else { RowOwner::NodeJump { node, component: k - 6 } };
+            return if k < 6 {
+                RowOwner::NodeForce { node, component: k }
+            } else {
+                RowOwner::NodeJump {
+                    node,
+                    component: k - 6,
+                }
+            };
         }
         let i = i - nn;
         if i < p * self.n_coords {
             let coord = i / p;
-            return if i % p == 0 { RowOwner::CoordForce { coord } } else { RowOwner::CoordJump { coord } };
+            return if i % p == 0 {
+                RowOwner::CoordForce { coord }
+            } else {
+                RowOwner::CoordJump { coord }
+            };
         }
         let i = i - p * self.n_coords;
         let row = i / p;
@@ -108,11 +124,23 @@ mod tests {
             for a in 0..3 {
                 for k in 0..6 {
                     let i = l.node_delta(a) + k;
-                    assert_eq!(l.owner(i), RowOwner::NodeForce { node: a, component: k });
+                    assert_eq!(
+                        l.owner(i),
+                        RowOwner::NodeForce {
+                            node: a,
+                            component: k
+                        }
+                    );
                     seen[i] = true;
                     if l.ed() {
                         let j = l.node_jump(a) + k;
-                        assert_eq!(l.owner(j), RowOwner::NodeJump { node: a, component: k });
+                        assert_eq!(
+                            l.owner(j),
+                            RowOwner::NodeJump {
+                                node: a,
+                                component: k
+                            }
+                        );
                         seen[j] = true;
                     }
                 }

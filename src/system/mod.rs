@@ -1,2 +1,463 @@
-//! Compiling a [`Model`](crate::model::Model) into numbered unknowns and kernels.
+//! Compiling a [`Model`] into a [`System`]: node numbering (including internal centre-of-mass
+//! nodes), joint attachments in each node's triad, coordinates, constraint rows and kernels.
+
 pub mod layout;
+pub mod sparse;
+
+use crate::elements::coordinate::{CoordinateDrive, CoordinateSpring};
+use crate::elements::inertia::NodeInertia;
+use crate::elements::loads::{LoadKind, PointLoad};
+use crate::joints::{clamp::Clamp, revolute::Revolute, spherical::Spherical, universal::Universal};
+use crate::joints::{Attachment, ConstraintLaw, JointKernel, JointLaw, Side};
+use crate::model::{self, Model, ModelError, ModelErrors, Scheme, GROUND};
+use crate::rotation::{exp_map, orthonormalize};
+use crate::state::{NodeState, State};
+use crate::time_function::TimeFunction;
+use crate::vec3::{M3, V3};
+use layout::Layout;
+use std::collections::HashMap;
+
+/// What a model joint became: its kernel and, for a revolute, its coordinate, drive and spring.
+#[derive(Clone, Debug)]
+pub struct JointInfo {
+    pub name: String,
+    pub kernel: usize,
+    pub coord: Option<usize>,
+    pub drive: Option<usize>,
+    pub spring: Option<usize>,
+}
+
+#[derive(Clone, Debug)]
+pub struct System {
+    pub name: String,
+    pub layout: Layout,
+    pub node_names: Vec<String>,
+    pub coord_names: Vec<String>,
+    /// Per constraint row: the owning item's name and its local row.
+    pub row_names: Vec<(String, usize)>,
+    pub inertias: Vec<NodeInertia>,
+    pub joints: Vec<JointKernel>,
+    pub joint_info: Vec<JointInfo>,
+    pub springs: Vec<CoordinateSpring>,
+    pub drives: Vec<CoordinateDrive>,
+    pub loads: Vec<PointLoad>,
+    pub gravity: V3<f64>,
+    pub initial: State,
+    /// Mean nodal mass, for the multiplier scaling `s = m_ref/h²`.
+    pub mass_ref: f64,
+    /// Characteristic length (extent of the initial configuration), for tolerances.
+    pub length_ref: f64,
+}
+
+fn orientation(o: &model::Orientation) -> M3<f64> {
+    if let Some(m) = o.matrix {
+        orthonormalize(&M3(m))
+    } else if let Some(v) = o.rotation_vector {
+        exp_map(&V3(v))
+    } else {
+        M3::identity()
+    }
+}
+
+/// A right-handed triad whose third unit vector is `e3`.
+pub fn triad_from_axis(e3: V3<f64>) -> M3<f64> {
+    let e3 = e3.scale_f(1.0 / e3.norm());
+    let trial = if e3.0[0].abs() < 0.9 {
+        V3([1.0, 0.0, 0.0])
+    } else {
+        V3([0.0, 1.0, 0.0])
+    };
+    let e1 = trial - e3.scale_f(trial.dot(&e3));
+    let e1 = e1.scale_f(1.0 / e1.norm());
+    M3::from_cols(e1, e3.cross(&e1), e3)
+}
+
+impl System {
+    pub fn compile(model: &Model) -> Result<System, ModelErrors> {
+        let scheme = model.simulation.scheme;
+        Self::compile_with(model, scheme)
+    }
+
+    pub fn compile_with(model: &Model, scheme: Scheme) -> Result<System, ModelErrors> {
+        model.validate()?;
+        let err = |path: String, msg: String| ModelErrors::one(ModelError::new(path, msg));
+
+        // Nodes, then one internal node per body whose centre of mass is offset.
+        let mut node_names: Vec<String> = Vec::new();
+        let mut nodes: Vec<NodeState> = Vec::new();
+        for n in &model.nodes {
+            let r = orientation(&n.orientation);
+            node_names.push(n.name.clone());
+            nodes.push(NodeState {
+                x: V3(n.position),
+                r,
+                v: V3(n.velocity),
+                w: r.tmul_v(&V3(n.angular_velocity)),
+            });
+        }
+        let index: HashMap<String, usize> = node_names
+            .iter()
+            .enumerate()
+            .map(|(i, n)| (n.clone(), i))
+            .collect();
+        let mut mass = vec![0.0; nodes.len()];
+        let mut inertia = vec![M3::<f64>::zero(); nodes.len()];
+        // (body name, carrier node, cm node, offset) for bodies needing an internal clamp.
+        let mut cm_links: Vec<(String, usize, usize, V3<f64>)> = Vec::new();
+        for b in &model.bodies {
+            let a = index[&b.node];
+            let c = V3(b.cm_offset);
+            let j = M3(b.inertia.matrix());
+            if c.max_abs() == 0.0 {
+                mass[a] += b.mass;
+                inertia[a] = inertia[a] + j;
+            } else {
+                let na = nodes[a];
+                let arm = na.r.mul_v(&c);
+                let cm = NodeState {
+                    x: na.x + arm,
+                    r: na.r,
+                    v: na.v + na.omega().cross(&arm),
+                    w: na.w,
+                };
+                node_names.push(format!("{}.cm", b.name));
+                nodes.push(cm);
+                mass.push(b.mass);
+                inertia.push(j);
+                cm_links.push((b.name.clone(), a, nodes.len() - 1, c));
+            }
+        }
+
+        // Count coordinates and rows to fix the layout.
+        let mut n_coords = 0;
+        let mut n_rows = 6 * cm_links.len();
+        for j in &model.joints {
+            n_rows += match j {
+                model::Joint::Spherical(_) => 3,
+                model::Joint::Universal(_) => 4,
+                model::Joint::Clamp(_) => 6,
+                model::Joint::Revolute(r) => {
+                    n_coords += 1;
+                    6 + usize::from(r.drive.is_some())
+                }
+            };
+        }
+        let layout = Layout::new(scheme, nodes.len(), n_coords, n_rows);
+
+        let inertias = (0..nodes.len())
+            .filter(|&a| mass[a] > 0.0 || inertia[a].max_abs() > 0.0)
+            .map(|a| NodeInertia::new(a, mass[a], inertia[a], &layout))
+            .collect();
+
+        let mut joints = Vec::new();
+        let mut joint_info = Vec::new();
+        let mut springs = Vec::new();
+        let mut drives = Vec::new();
+        let mut row_names = Vec::new();
+        let mut coord_names = Vec::new();
+        let mut coords0 = Vec::new();
+        let mut row = 0;
+
+        for (body, a, cm, c) in &cm_links {
+            let at = [
+                Attachment {
+                    offset: *c,
+                    triad: M3::identity(),
+                },
+                Attachment {
+                    offset: V3::zero(),
+                    triad: M3::identity(),
+                },
+            ];
+            let law = JointLaw::Clamp(Clamp { at });
+            let name = format!("{body}.cm_link");
+            for k in 0..6 {
+                row_names.push((name.clone(), k));
+            }
+            joints.push(JointKernel::new(
+                name,
+                law,
+                [Side::Node(*a), Side::Node(*cm)],
+                vec![],
+                row,
+                &layout,
+            ));
+            row += 6;
+        }
+
+        for (ji, j) in model.joints.iter().enumerate() {
+            let path = format!("joints[{ji}]");
+            let (n1, n2) = j.nodes();
+            let side_of = |n: &str| {
+                if n == GROUND {
+                    Side::Ground {
+                        x: V3::zero(),
+                        r: M3::identity(),
+                    }
+                } else {
+                    Side::Node(index[n])
+                }
+            };
+            let sides = [side_of(n1), side_of(n2)];
+            let pose = |s: &Side| match s {
+                Side::Node(a) => (nodes[*a].x, nodes[*a].r),
+                Side::Ground { x, r } => (*x, *r),
+            };
+            let default_pos = match sides[1] {
+                Side::Node(a) => nodes[a].x,
+                Side::Ground { .. } => match sides[0] {
+                    Side::Node(a) => nodes[a].x,
+                    Side::Ground { .. } => V3::zero(),
+                },
+            };
+            // Attachment of a global point/triad to a side, in that side's triad.
+            let attach = |s: &Side, p: V3<f64>, q: M3<f64>| {
+                let (x, r) = pose(s);
+                Attachment {
+                    offset: r.tmul_v(&(p - x)),
+                    triad: r.transpose().mul_m(&q),
+                }
+            };
+            let mut coords = vec![];
+            let law = match j {
+                model::Joint::Spherical(s) => {
+                    let p = s.position.map(V3).unwrap_or(default_pos);
+                    JointLaw::Spherical(Spherical {
+                        at: [
+                            attach(&sides[0], p, M3::identity()),
+                            attach(&sides[1], p, M3::identity()),
+                        ],
+                    })
+                }
+                model::Joint::Universal(u) => {
+                    let p = u.position.map(V3).unwrap_or(default_pos);
+                    JointLaw::Universal(Universal {
+                        at: [
+                            attach(&sides[0], p, triad_from_axis(V3(u.axis1))),
+                            attach(&sides[1], p, triad_from_axis(V3(u.axis2))),
+                        ],
+                    })
+                }
+                model::Joint::Clamp(_) => {
+                    let p = default_pos;
+                    JointLaw::Clamp(Clamp {
+                        at: [
+                            attach(&sides[0], p, M3::identity()),
+                            attach(&sides[1], p, M3::identity()),
+                        ],
+                    })
+                }
+                model::Joint::Revolute(r) => {
+                    let p = r.position.map(V3).unwrap_or(default_pos);
+                    let q = triad_from_axis(V3(r.axis));
+                    // φ is zero in the initial configuration, unless a drive prescribes φ(0):
+                    // then the initial configuration is taken to be at φ = f(0).
+                    let drive = r
+                        .drive
+                        .as_ref()
+                        .map(|d| TimeFunction::new(d).map_err(|e| err(format!("{path}.drive"), e)))
+                        .transpose()?;
+                    let phi0 = drive.as_ref().map_or(0.0, |f| f.value(0.0));
+                    let ql = exp_map(&V3(r.axis).scale_f(phi0)).mul_m(&q);
+                    let c = coord_names.len();
+                    coord_names.push(format!("{}.phi", r.name));
+                    coords0.push(phi0);
+                    coords.push(c);
+                    if let Some(f) = drive {
+                        let drow = n_rows - drives_rows_left(model, ji);
+                        row_names.push((format!("{}.drive", r.name), 0));
+                        drives.push((c, drow, f, r.name.clone()));
+                    }
+                    if let Some(s) = &r.spring {
+                        springs.push(CoordinateSpring::new(
+                            c,
+                            s.stiffness,
+                            s.damping,
+                            s.rest,
+                            &layout,
+                        ));
+                    }
+                    JointLaw::Revolute(Revolute {
+                        at: [attach(&sides[0], p, q), attach(&sides[1], p, ql)],
+                    })
+                }
+            };
+            let nr = law.n_rows();
+            for k in 0..nr {
+                row_names.push((j.name().to_string(), k));
+            }
+            joint_info.push(JointInfo {
+                name: j.name().to_string(),
+                kernel: joints.len(),
+                coord: coords.first().copied(),
+                drive: None,
+                spring: None,
+            });
+            joints.push(JointKernel::new(
+                j.name().to_string(),
+                law,
+                sides,
+                coords,
+                row,
+                &layout,
+            ));
+            row += nr;
+        }
+        // Drive rows come after all joint rows; give names in row order.
+        let mut names_sorted: Vec<(String, usize)> = Vec::with_capacity(n_rows);
+        names_sorted.extend(
+            row_names
+                .iter()
+                .filter(|(n, _)| !n.ends_with(".drive"))
+                .cloned(),
+        );
+        let drive_kernels: Vec<CoordinateDrive> = drives
+            .into_iter()
+            .map(|(c, drow, f, jname)| {
+                names_sorted.push((format!("{jname}.drive"), 0));
+                CoordinateDrive::new(c, drow, f, &layout)
+            })
+            .collect();
+        debug_assert_eq!(names_sorted.len(), n_rows);
+        for info in &mut joint_info {
+            if let Some(c) = info.coord {
+                info.drive = drive_kernels.iter().position(|d| d.coord == c);
+                info.spring = springs.iter().position(|s| s.coord == c);
+            }
+        }
+
+        let loads = model
+            .loads
+            .iter()
+            .map(|l| {
+                let s = l.spec();
+                Ok(PointLoad {
+                    node: index[&s.node],
+                    kind: match l {
+                        model::Load::Force(_) => LoadKind::Force,
+                        model::Load::Moment(_) => LoadKind::Moment,
+                    },
+                    value: V3(s.value),
+                    scale: s
+                        .scale
+                        .as_ref()
+                        .map(TimeFunction::new)
+                        .transpose()
+                        .map_err(|e| err("loads".into(), e))?,
+                })
+            })
+            .collect::<Result<Vec<_>, ModelErrors>>()?;
+
+        let masses: Vec<f64> = mass.iter().copied().filter(|m| *m > 0.0).collect();
+        let mass_ref = if masses.is_empty() {
+            1.0
+        } else {
+            masses.iter().sum::<f64>() / masses.len() as f64
+        };
+        let length_ref = nodes.iter().map(|n| n.x.max_abs()).fold(1.0f64, f64::max);
+        let n_c = coords0.len();
+        let initial = State {
+            t: 0.0,
+            nodes,
+            coords: coords0,
+            coord_rates: vec![0.0; n_c],
+            lambda: vec![0.0; n_rows],
+        };
+        Ok(System {
+            name: model.name.clone(),
+            layout,
+            node_names,
+            coord_names,
+            row_names: names_sorted,
+            inertias,
+            joints,
+            joint_info,
+            springs,
+            drives: drive_kernels,
+            loads,
+            gravity: V3(model.gravity),
+            initial,
+            mass_ref,
+            length_ref,
+        })
+    }
+
+    pub fn node_index(&self, name: &str) -> Option<usize> {
+        self.node_names.iter().position(|n| n == name)
+    }
+
+    pub fn joint(&self, name: &str) -> Option<&JointInfo> {
+        self.joint_info.iter().find(|j| j.name == name)
+    }
+
+    /// Kinetic energy `Σ ½ m v·v + ½ W·J W`.
+    pub fn kinetic_energy(&self, s: &State) -> f64 {
+        self.inertias
+            .iter()
+            .map(|k| {
+                let n = &s.nodes[k.node];
+                0.5 * k.mass * n.v.norm_sq() + 0.5 * n.w.dot(&k.inertia.mul_v(&n.w))
+            })
+            .sum()
+    }
+
+    /// Potential energy of gravity and springs.
+    pub fn potential_energy(&self, s: &State) -> f64 {
+        let grav: f64 = self
+            .inertias
+            .iter()
+            .map(|k| -k.mass * self.gravity.dot(&s.nodes[k.node].x))
+            .sum();
+        let spr: f64 = self
+            .springs
+            .iter()
+            .map(|sp| 0.5 * sp.stiffness * (s.coords[sp.coord] - sp.rest).powi(2))
+            .sum();
+        grav + spr
+    }
+
+    /// Human-readable owner of a global unknown/row, for diagnostics.
+    pub fn describe_row(&self, i: usize) -> String {
+        use layout::RowOwner::*;
+        const COMP: [&str; 6] = [
+            "force x", "force y", "force z", "moment 1", "moment 2", "moment 3",
+        ];
+        match self.layout.owner(i) {
+            NodeForce { node, component } => format!(
+                "node `{}` momentum balance ({})",
+                self.node_names[node], COMP[component]
+            ),
+            NodeJump { node, component } => format!(
+                "node `{}` ED jump equation ({})",
+                self.node_names[node], COMP[component]
+            ),
+            CoordForce { coord } => {
+                format!("coordinate `{}` force balance", self.coord_names[coord])
+            }
+            CoordJump { coord } => {
+                format!("coordinate `{}` ED jump equation", self.coord_names[coord])
+            }
+            Constraint { row } => format!(
+                "joint `{}` constraint {}",
+                self.row_names[row].0,
+                self.row_names[row].1 + 1
+            ),
+            ConstraintRate { row } => {
+                format!(
+                    "joint `{}` velocity-level constraint {}",
+                    self.row_names[row].0,
+                    self.row_names[row].1 + 1
+                )
+            }
+        }
+    }
+}
+
+/// Drive rows are numbered after every joint row, in joint order: how many drive rows the
+/// joints from `ji` on still hold (so this joint's drive row is `n_rows − that`).
+fn drives_rows_left(model: &Model, ji: usize) -> usize {
+    model.joints[ji..]
+        .iter()
+        .filter(|j| matches!(j, model::Joint::Revolute(r) if r.drive.is_some()))
+        .count()
+}

@@ -1,0 +1,348 @@
+//! One time step: Newton's method on the EP or ED discrete equations of all kernels, with the
+//! sparse LU's symbolic analysis reused, and the bookkeeping of the energy identity (work of
+//! drives, loads, dampers and constraints, and ED's jump dissipation).
+
+use crate::elements::{eval_kernel, StepCtx};
+use crate::model::SimulationSettings;
+use crate::rotation::{cayley, check_step_rotation, orthonormalize};
+use crate::state::{NodeState, State};
+use crate::system::sparse::NewtonMatrix;
+use crate::system::System;
+use crate::vec3::V3;
+
+/// Energy bookkeeping and checks of one converged step.
+#[derive(Clone, Debug, Default)]
+pub struct StepReport {
+    pub iterations: usize,
+    /// ∞-norm of the residual after each iteration (the first is the predictor's).
+    pub residuals: Vec<f64>,
+    pub drive_work: f64,
+    /// Per drive: its work over the step.
+    pub drive_works: Vec<f64>,
+    pub external_work: f64,
+    pub damper_work: f64,
+    /// ED: `½Σ|v_j − v_i|²_M + ½Σ(ε_j − ε_i)ᵀK(ε_j − ε_i)` (0 for EP).
+    pub numerical_dissipation: f64,
+    /// Work of all constraint forces over the step (zero to round-off).
+    pub constraint_work: f64,
+    /// Largest |C_f| over all constraint rows.
+    pub max_violation: f64,
+    /// Per drive: driving force/torque.
+    pub drive_forces: Vec<f64>,
+    /// Per joint kernel: reaction force and moment on node2 at the joint point.
+    pub reactions: Vec<(V3<f64>, V3<f64>)>,
+}
+
+#[derive(Clone, Debug)]
+pub struct StepFailure {
+    pub t: f64,
+    pub h: f64,
+    pub reason: String,
+}
+
+impl std::fmt::Display for StepFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "step from t = {:.6} s with h = {:.3e} s failed: {}",
+            self.t, self.h, self.reason
+        )
+    }
+}
+
+pub struct Integrator {
+    pub matrix: NewtonMatrix,
+    inertia_pos: Vec<Vec<usize>>,
+    joint_pos: Vec<Vec<usize>>,
+    spring_pos: Vec<Vec<usize>>,
+    drive_pos: Vec<Vec<usize>>,
+    y: Vec<f64>,
+    res: Vec<f64>,
+    pub tol: f64,
+    pub max_iter: usize,
+    pub total_iterations: usize,
+}
+
+impl Integrator {
+    pub fn new(sys: &System, settings: &SimulationSettings) -> Self {
+        use crate::elements::Kernel;
+        let mut blocks: Vec<&[usize]> = Vec::new();
+        blocks.extend(sys.inertias.iter().map(|k| k.unknowns()));
+        blocks.extend(sys.joints.iter().map(|k| k.unknowns()));
+        blocks.extend(sys.springs.iter().map(|k| k.unknowns()));
+        blocks.extend(sys.drives.iter().map(|k| k.unknowns()));
+        let n = sys.layout.n_unknowns();
+        let (matrix, mut pos) = NewtonMatrix::from_blocks(n, &blocks);
+        let drive_pos = pos.split_off(pos.len() - sys.drives.len());
+        let spring_pos = pos.split_off(pos.len() - sys.springs.len());
+        let joint_pos = pos.split_off(pos.len() - sys.joints.len());
+        Integrator {
+            matrix,
+            inertia_pos: pos,
+            joint_pos,
+            spring_pos,
+            drive_pos,
+            y: vec![0.0; n],
+            res: vec![0.0; n],
+            tol: settings.newton_tol,
+            max_iter: settings.max_newton_iterations as usize,
+            total_iterations: 0,
+        }
+    }
+
+    fn assemble(&mut self, sys: &System, ctx: &StepCtx, with_jacobian: bool) {
+        self.res.iter_mut().for_each(|r| *r = 0.0);
+        if with_jacobian {
+            self.matrix.clear();
+        }
+        let y = &self.y;
+        let res = &mut self.res;
+        let vals = &mut self.matrix.values;
+        macro_rules! run {
+            ($list:expr, $pos:expr) => {
+                for (k, p) in $list.iter().zip($pos.iter()) {
+                    let jac = if with_jacobian {
+                        Some((&mut vals[..], &p[..]))
+                    } else {
+                        None
+                    };
+                    eval_kernel(k, ctx, y, res, jac);
+                }
+            };
+        }
+        run!(sys.inertias, self.inertia_pos);
+        run!(sys.joints, self.joint_pos);
+        run!(sys.springs, self.spring_pos);
+        run!(sys.drives, self.drive_pos);
+        for l in &sys.loads {
+            l.add_to_residual(ctx, res);
+        }
+    }
+
+    fn inf_norm(v: &[f64]) -> (f64, usize) {
+        let mut m = 0.0;
+        let mut at = 0;
+        for (i, x) in v.iter().enumerate() {
+            let a = x.abs();
+            if a > m || a.is_nan() {
+                m = a;
+                at = i;
+                if a.is_nan() {
+                    break;
+                }
+            }
+        }
+        (m, at)
+    }
+
+    /// Multiplier scaling `s = m_ref/h²`: constraint rows and forces then have the size of the
+    /// inertia terms, so the Newton matrix's conditioning does not degrade as h shrinks.
+    pub fn scaling(sys: &System, h: f64) -> f64 {
+        sys.mass_ref / (h * h)
+    }
+
+    /// Advances `state` by `h`. On failure nothing is changed.
+    pub fn step(
+        &mut self,
+        sys: &System,
+        state: &State,
+        h: f64,
+    ) -> Result<(State, StepReport), StepFailure> {
+        let layout = sys.layout;
+        let ed = layout.ed();
+        let s = Self::scaling(sys, h);
+        let ctx = StepCtx {
+            layout,
+            h,
+            t_i: state.t,
+            t_f: state.t + h,
+            s,
+            state,
+            gravity: sys.gravity,
+        };
+        let fail = |reason: String| StepFailure {
+            t: state.t,
+            h,
+            reason,
+        };
+
+        // Predictor: constant velocity; multipliers from the last step.
+        self.y.iter_mut().for_each(|v| *v = 0.0);
+        for (a, n) in state.nodes.iter().enumerate() {
+            let d = layout.node_delta(a);
+            n.v.scale_f(h).write_to(&mut self.y[d..]);
+            n.w.scale_f(h).write_to(&mut self.y[d + 3..]);
+            if ed {
+                let j = layout.node_jump(a);
+                n.v.write_to(&mut self.y[j..]);
+                n.w.write_to(&mut self.y[j + 3..]);
+            }
+        }
+        for c in 0..layout.n_coords {
+            self.y[layout.coord_delta(c)] = h * state.coord_rates[c];
+            if ed {
+                self.y[layout.coord_jump(c)] = state.coord_rates[c];
+            }
+        }
+        for r in 0..layout.n_rows {
+            self.y[layout.mult(r)] = state.lambda[r] / s;
+        }
+
+        let mut report = StepReport::default();
+        let mut f_ref = 0.0;
+        for it in 0..=self.max_iter {
+            self.assemble(sys, &ctx, true);
+            let (rn, worst) = Self::inf_norm(&self.res);
+            report.residuals.push(rn);
+            if !rn.is_finite() {
+                return Err(fail(format!(
+                    "residual is not finite at {}",
+                    sys.describe_row(worst)
+                )));
+            }
+            if it == 0 {
+                // Force scale of the step: the predictor's imbalance, or the model's weight.
+                f_ref = rn.max(sys.mass_ref * sys.gravity.norm()).max(1e-300);
+            }
+            let k = report.residuals.len();
+            let stagnated = k >= 3 && rn > 0.5 * report.residuals[k - 2] && rn < 1e-6 * f_ref;
+            if rn <= self.tol * f_ref || stagnated {
+                break;
+            }
+            if it == self.max_iter {
+                return Err(fail(format!(
+                    "Newton did not converge in {} iterations; largest residual {:.3e} (scale {:.3e}) at {}",
+                    self.max_iter,
+                    rn,
+                    f_ref,
+                    sys.describe_row(worst)
+                )));
+            }
+            self.matrix.factor().map_err(|e| fail(e))?;
+            self.matrix.solve(&mut self.res);
+            for (y, d) in self.y.iter_mut().zip(self.res.iter()) {
+                *y -= d;
+            }
+            if let Some(bad) = self.y.iter().position(|v| !v.is_finite()) {
+                return Err(fail(format!(
+                    "singular Newton matrix (no finite update) at {}",
+                    sys.describe_row(bad)
+                )));
+            }
+            for a in 0..layout.n_nodes {
+                let d = layout.node_delta(a) + 3;
+                let r = V3([self.y[d], self.y[d + 1], self.y[d + 2]]);
+                check_step_rotation(&r)
+                    .map_err(|e| fail(format!("node `{}`: {e}", sys.node_names[a])))?;
+            }
+            report.iterations += 1;
+        }
+        self.total_iterations += report.iterations;
+        Ok(self.commit(sys, &ctx, report))
+    }
+
+    /// Builds the f-state from the converged unknowns and fills the step report.
+    fn commit(
+        &mut self,
+        sys: &System,
+        ctx: &StepCtx,
+        mut report: StepReport,
+    ) -> (State, StepReport) {
+        let layout = sys.layout;
+        let ed = layout.ed();
+        let h = ctx.h;
+        let st = ctx.state;
+        let y = &self.y;
+        let mut nodes = Vec::with_capacity(st.nodes.len());
+        for (a, n) in st.nodes.iter().enumerate() {
+            let d = layout.node_delta(a);
+            let dx = V3([y[d], y[d + 1], y[d + 2]]);
+            let r = V3([y[d + 3], y[d + 4], y[d + 5]]);
+            let (vs, ws) = if ed {
+                let j = layout.node_jump(a);
+                (
+                    V3([y[j], y[j + 1], y[j + 2]]),
+                    V3([y[j + 3], y[j + 4], y[j + 5]]),
+                )
+            } else {
+                (n.v, n.w)
+            };
+            nodes.push(NodeState {
+                x: n.x + dx,
+                r: orthonormalize(&n.r.mul_m(&cayley(&r))),
+                v: dx.scale_f(2.0 / h) - vs,
+                w: r.scale_f(2.0 / h) - ws,
+            });
+        }
+        let mut coords = st.coords.clone();
+        let mut rates = st.coord_rates.clone();
+        for c in 0..layout.n_coords {
+            let dq = y[layout.coord_delta(c)];
+            let start = if ed {
+                y[layout.coord_jump(c)]
+            } else {
+                st.coord_rates[c]
+            };
+            coords[c] += dq;
+            rates[c] = 2.0 * dq / h - start;
+        }
+        let lambda = (0..layout.n_rows)
+            .map(|r| ctx.s * y[layout.mult(r)])
+            .collect();
+
+        // Energy bookkeeping (ed-scheme-notes §3.4): E_f − E_i = W_drive + W_ext + W_damp − D.
+        report.drive_works = sys.drives.iter().map(|d| d.step_work(ctx, y)).collect();
+        report.drive_work = report.drive_works.iter().sum();
+        report.drive_forces = sys.drives.iter().map(|d| d.force(ctx, y)).collect();
+        report.external_work = sys.loads.iter().map(|l| l.step_work(ctx, y)).sum();
+        report.damper_work = sys
+            .springs
+            .iter()
+            .map(|sp| -sp.damping * y[layout.coord_delta(sp.coord)].powi(2) / h)
+            .sum();
+        if ed {
+            let mut d = 0.0;
+            for k in &sys.inertias {
+                let j = layout.node_jump(k.node);
+                let n = &st.nodes[k.node];
+                let dv = V3([y[j], y[j + 1], y[j + 2]]) - n.v;
+                let dw = V3([y[j + 3], y[j + 4], y[j + 5]]) - n.w;
+                d += 0.5 * k.mass * dv.norm_sq() + 0.5 * dw.dot(&k.inertia.mul_v(&dw));
+            }
+            for sp in &sys.springs {
+                d += 0.5 * sp.stiffness * sp.jump(ctx, y).powi(2);
+            }
+            report.numerical_dissipation = d;
+        }
+        report.constraint_work = sys.joints.iter().map(|j| j.step_work(ctx, y)).sum();
+        report.max_violation = sys
+            .joints
+            .iter()
+            .flat_map(|j| {
+                let v = j.violation(ctx, y);
+                v.into_iter().take(j.n_rows())
+            })
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        report.reactions = sys
+            .joints
+            .iter()
+            .map(|j| {
+                let attach2 = match &j.law {
+                    crate::joints::JointLaw::Spherical(l) => l.at[1].offset,
+                    crate::joints::JointLaw::Revolute(l) => l.at[1].offset,
+                    crate::joints::JointLaw::Universal(l) => l.at[1].offset,
+                    crate::joints::JointLaw::Clamp(l) => l.at[1].offset,
+                };
+                j.reaction(ctx, y, &attach2)
+            })
+            .collect();
+        let state = State {
+            t: ctx.t_f,
+            nodes,
+            coords,
+            coord_rates: rates,
+            lambda,
+        };
+        (state, report)
+    }
+}

@@ -1,0 +1,228 @@
+//! Sensors: named quantities evaluated from the state after every recorded step. Each model
+//! sensor expands into channels `<sensor>.<component>` with SI units.
+
+use crate::integrator::StepReport;
+use crate::model::{Model, Sensor};
+use crate::rotation::log_map;
+use crate::state::State;
+use crate::system::System;
+
+#[derive(Clone, Debug)]
+enum Source {
+    Position(usize),
+    Displacement(usize),
+    Rotation(usize),
+    Velocity(usize),
+    Coordinate(usize),
+    Reaction(usize),
+    Drive(usize),
+    Energy,
+}
+
+#[derive(Clone, Debug)]
+pub struct Channels {
+    pub names: Vec<String>,
+    pub units: Vec<&'static str>,
+    sources: Vec<(Source, usize)>,
+}
+
+/// Running totals over the run, needed by the energy sensor.
+#[derive(Clone, Debug, Default)]
+pub struct Totals {
+    pub drive_work: f64,
+    pub external_work: f64,
+    pub damper_work: f64,
+    pub numerical_dissipation: f64,
+    pub per_drive_work: Vec<f64>,
+    pub initial_energy: f64,
+}
+
+const ENERGY: [&str; 8] = [
+    "kinetic",
+    "potential",
+    "total",
+    "drive_work",
+    "external_work",
+    "damper_work",
+    "numerical_dissipation",
+    "balance",
+];
+
+impl Channels {
+    pub fn new(model: &Model, sys: &System) -> Channels {
+        let mut c = Channels {
+            names: vec![],
+            units: vec![],
+            sources: vec![],
+        };
+        let add =
+            |c: &mut Channels, sensor: &str, comps: &[&str], unit: &[&'static str], src: Source| {
+                for (k, comp) in comps.iter().enumerate() {
+                    c.names.push(format!("{sensor}.{comp}"));
+                    c.units.push(unit[k.min(unit.len() - 1)]);
+                    c.sources.push((src.clone(), k));
+                }
+            };
+        let node = |n: &str| sys.node_index(n).expect("validated");
+        for s in &model.sensors {
+            let name = s.name();
+            match s {
+                Sensor::NodePosition { node: n, .. } => add(
+                    &mut c,
+                    name,
+                    &["x", "y", "z"],
+                    &["m"],
+                    Source::Position(node(n)),
+                ),
+                Sensor::NodeDisplacement { node: n, .. } => add(
+                    &mut c,
+                    name,
+                    &["x", "y", "z"],
+                    &["m"],
+                    Source::Displacement(node(n)),
+                ),
+                Sensor::NodeRotation { node: n, .. } => add(
+                    &mut c,
+                    name,
+                    &[
+                        "x", "y", "z", "R11", "R12", "R13", "R21", "R22", "R23", "R31", "R32",
+                        "R33",
+                    ],
+                    &["rad", "rad", "rad", "1"],
+                    Source::Rotation(node(n)),
+                ),
+                Sensor::NodeVelocity { node: n, .. } => add(
+                    &mut c,
+                    name,
+                    &["vx", "vy", "vz", "wx", "wy", "wz"],
+                    &["m/s", "m/s", "m/s", "rad/s"],
+                    Source::Velocity(node(n)),
+                ),
+                Sensor::JointCoordinate { joint, .. } => {
+                    let co = sys.joint(joint).and_then(|j| j.coord).expect("validated");
+                    add(
+                        &mut c,
+                        name,
+                        &["phi", "phi_rate"],
+                        &["rad", "rad/s"],
+                        Source::Coordinate(co),
+                    )
+                }
+                Sensor::JointReaction { joint, .. } => {
+                    let k = sys.joint(joint).expect("validated").kernel;
+                    add(
+                        &mut c,
+                        name,
+                        &["Fx", "Fy", "Fz", "Mx", "My", "Mz"],
+                        &["N", "N", "N", "N*m"],
+                        Source::Reaction(k),
+                    )
+                }
+                Sensor::DriveForce { joint, .. } => {
+                    let d = sys.joint(joint).and_then(|j| j.drive).expect("validated");
+                    add(
+                        &mut c,
+                        name,
+                        &["torque", "work"],
+                        &["N*m", "J"],
+                        Source::Drive(d),
+                    )
+                }
+                Sensor::Energy { .. } => add(&mut c, name, &ENERGY, &["J"], Source::Energy),
+            }
+        }
+        c
+    }
+
+    pub fn len(&self) -> usize {
+        self.names.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.names.is_empty()
+    }
+
+    /// Appends one sample. `report` is the step that produced `state` (None at t = 0, where
+    /// multiplier-based channels are NaN: they are step quantities).
+    pub fn sample(
+        &self,
+        sys: &System,
+        state: &State,
+        report: Option<&StepReport>,
+        totals: &Totals,
+        out: &mut Vec<f64>,
+    ) {
+        let mut energy: Option<[f64; 8]> = None;
+        for (src, k) in &self.sources {
+            let v = match src {
+                Source::Position(a) => state.nodes[*a].x.0[*k],
+                Source::Displacement(a) => state.nodes[*a].x.0[*k] - sys.initial.nodes[*a].x.0[*k],
+                Source::Rotation(a) => {
+                    let r = &state.nodes[*a].r;
+                    if *k < 3 {
+                        log_map(&r.mul_m(&sys.initial.nodes[*a].r.transpose())).0[*k]
+                    } else {
+                        r.0[(k - 3) / 3][(k - 3) % 3]
+                    }
+                }
+                Source::Velocity(a) => {
+                    let n = &state.nodes[*a];
+                    if *k < 3 {
+                        n.v.0[*k]
+                    } else {
+                        n.omega().0[k - 3]
+                    }
+                }
+                Source::Coordinate(c) => {
+                    if *k == 0 {
+                        state.coords[*c]
+                    } else {
+                        state.coord_rates[*c]
+                    }
+                }
+                Source::Reaction(j) => match report {
+                    Some(r) => {
+                        let (f, m) = r.reactions[*j];
+                        if *k < 3 {
+                            f.0[*k]
+                        } else {
+                            m.0[k - 3]
+                        }
+                    }
+                    None => f64::NAN,
+                },
+                Source::Drive(d) => {
+                    if *k == 0 {
+                        report.map_or(f64::NAN, |r| r.drive_forces[*d])
+                    } else {
+                        totals.per_drive_work.get(*d).copied().unwrap_or(0.0)
+                    }
+                }
+                Source::Energy => {
+                    let e = energy.get_or_insert_with(|| {
+                        let t = sys.kinetic_energy(state);
+                        let p = sys.potential_energy(state);
+                        let balance = t + p
+                            - totals.initial_energy
+                            - totals.drive_work
+                            - totals.external_work
+                            - totals.damper_work
+                            + totals.numerical_dissipation;
+                        [
+                            t,
+                            p,
+                            t + p,
+                            totals.drive_work,
+                            totals.external_work,
+                            totals.damper_work,
+                            totals.numerical_dissipation,
+                            balance,
+                        ]
+                    });
+                    e[*k]
+                }
+            };
+            out.push(v);
+        }
+    }
+}

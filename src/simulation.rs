@@ -1,0 +1,353 @@
+//! A running simulation: consistent initial velocities, fixed-step advance with step halving
+//! on Newton failure, and sensor samples handed out in chunks so memory stays flat.
+
+use crate::elements::StepCtx;
+use crate::integrator::{Integrator, StepFailure, StepReport};
+use crate::joints::Side;
+use crate::model::{Model, ModelErrors, Scheme, SimulationSettings};
+use crate::sensors::{Channels, Totals};
+use crate::state::State;
+use crate::system::layout::Layout;
+use crate::system::sparse::NewtonMatrix;
+use crate::system::System;
+use crate::vec3::V3;
+
+#[derive(Clone, Debug, Default)]
+pub struct RunStats {
+    pub steps: usize,
+    /// Steps whose Newton iteration failed and were retried with half the step.
+    pub halvings: usize,
+    pub newton_iterations: usize,
+    pub factorizations: usize,
+    pub symbolic_factorizations: usize,
+    pub max_constraint_violation: f64,
+    pub max_constraint_work: f64,
+    /// Largest |ΔE − W_drive − W_ext − W_damp + D| of a step: the energy identity's defect.
+    pub max_energy_defect: f64,
+}
+
+#[derive(Debug)]
+pub enum SimError {
+    Model(ModelErrors),
+    Step(StepFailure),
+}
+
+impl std::fmt::Display for SimError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SimError::Model(e) => write!(f, "{e}"),
+            SimError::Step(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+pub struct Simulation {
+    pub system: System,
+    pub settings: SimulationSettings,
+    pub state: State,
+    integrator: Integrator,
+    pub channels: Channels,
+    pub totals: Totals,
+    pub stats: RunStats,
+    pub warnings: Vec<String>,
+    pub last_report: Option<StepReport>,
+    /// Recorded samples not yet taken: times and row-major values.
+    times: Vec<f64>,
+    values: Vec<f64>,
+    step_index: u64,
+    output_every: u64,
+}
+
+impl Simulation {
+    pub fn new(model: &Model) -> Result<Simulation, SimError> {
+        Self::with_scheme(model, model.simulation.scheme)
+    }
+
+    pub fn with_scheme(model: &Model, scheme: Scheme) -> Result<Simulation, SimError> {
+        let system = System::compile_with(model, scheme).map_err(SimError::Model)?;
+        let mut settings = model.simulation.clone();
+        settings.scheme = scheme;
+        let mut state = system.initial.clone();
+        let mut warnings = Vec::new();
+        let change = project_initial_velocities(&system, &mut state);
+        let v_scale = state
+            .nodes
+            .iter()
+            .map(|n| n.v.norm() + n.omega().norm() * system.length_ref)
+            .fold(1e-12f64, f64::max);
+        if change > 1e-9 * v_scale {
+            warnings.push(format!(
+                "initial velocities adjusted by up to {change:.3e} m/s (or rad/s·m) to satisfy the joints' velocity constraints"
+            ));
+        }
+        let integrator = Integrator::new(&system, &settings);
+        let channels = Channels::new(model, &system);
+        let e0 = system.kinetic_energy(&state) + system.potential_energy(&state);
+        let totals = Totals {
+            initial_energy: e0,
+            per_drive_work: vec![0.0; system.drives.len()],
+            ..Default::default()
+        };
+        let output_every = settings
+            .output_dt
+            .map_or(1, |o| (o / settings.dt).round().max(1.0) as u64);
+        let mut sim = Simulation {
+            system,
+            settings,
+            state,
+            integrator,
+            channels,
+            totals,
+            stats: RunStats::default(),
+            warnings,
+            last_report: None,
+            times: vec![],
+            values: vec![],
+            step_index: 0,
+            output_every,
+        };
+        sim.record();
+        Ok(sim)
+    }
+
+    fn record(&mut self) {
+        self.times.push(self.state.t);
+        self.channels.sample(
+            &self.system,
+            &self.state,
+            self.last_report.as_ref(),
+            &self.totals,
+            &mut self.values,
+        );
+    }
+
+    /// Takes the samples recorded since the last call: (times, row-major values).
+    pub fn take_samples(&mut self) -> (Vec<f64>, Vec<f64>) {
+        (
+            std::mem::take(&mut self.times),
+            std::mem::take(&mut self.values),
+        )
+    }
+
+    pub fn energy(&self) -> f64 {
+        self.system.kinetic_energy(&self.state) + self.system.potential_energy(&self.state)
+    }
+
+    /// One step of `h`, retried as two halves (recursively) if Newton fails.
+    fn advance_interval(&mut self, h: f64, depth: u32) -> Result<(), StepFailure> {
+        let e_i = self.energy();
+        match self.integrator.step(&self.system, &self.state, h) {
+            Ok((state, report)) => {
+                self.state = state;
+                self.stats.steps += 1;
+                let e_f = self.energy();
+                let t = &mut self.totals;
+                t.drive_work += report.drive_work;
+                t.external_work += report.external_work;
+                t.damper_work += report.damper_work;
+                t.numerical_dissipation += report.numerical_dissipation;
+                for (w, dw) in t.per_drive_work.iter_mut().zip(report.drive_works.iter()) {
+                    *w += dw;
+                }
+                let defect =
+                    e_f - e_i - report.drive_work - report.external_work - report.damper_work
+                        + report.numerical_dissipation;
+                self.stats.max_energy_defect = self.stats.max_energy_defect.max(defect.abs());
+                self.stats.max_constraint_violation = self
+                    .stats
+                    .max_constraint_violation
+                    .max(report.max_violation);
+                self.stats.max_constraint_work = self
+                    .stats
+                    .max_constraint_work
+                    .max(report.constraint_work.abs());
+                self.last_report = Some(report);
+                Ok(())
+            }
+            Err(e) if depth < self.settings.max_step_halvings => {
+                self.stats.halvings += 1;
+                let _ = e;
+                self.advance_interval(0.5 * h, depth + 1)?;
+                self.advance_interval(0.5 * h, depth + 1)
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    /// Advances with the fixed step up to `t_target` (not past `t_end`), recording samples.
+    pub fn advance_to(&mut self, t_target: f64) -> Result<(), StepFailure> {
+        let dt = self.settings.dt;
+        let t_end = self.settings.t_end;
+        let target = t_target.min(t_end);
+        while self.state.t < target - 1e-9 * dt {
+            // Land exactly on t_end; otherwise steps are k·dt from 0 to avoid drift in t.
+            let next = ((self.step_index + 1) as f64 * dt).min(t_end);
+            let h = next - self.state.t;
+            self.advance_interval(h, 0)?;
+            self.state.t = next;
+            self.step_index += 1;
+            if self.step_index % self.output_every == 0
+                || (next - t_end).abs() < 1e-12 * t_end.max(1.0)
+            {
+                self.record();
+            }
+        }
+        self.stats.newton_iterations = self.integrator.total_iterations;
+        self.stats.factorizations = self.integrator.matrix.numeric_factorizations;
+        self.stats.symbolic_factorizations = self.integrator.matrix.symbolic_factorizations;
+        Ok(())
+    }
+
+    pub fn done(&self) -> bool {
+        self.state.t >= self.settings.t_end - 1e-9 * self.settings.dt
+    }
+
+    /// Used by tests: the step context of the current state.
+    pub fn ctx(&self, h: f64) -> StepCtx<'_> {
+        StepCtx {
+            layout: self.system.layout,
+            h,
+            t_i: self.state.t,
+            t_f: self.state.t + h,
+            s: Integrator::scaling(&self.system, h),
+            state: &self.state,
+            gravity: self.system.gravity,
+        }
+    }
+}
+
+/// Projects the initial velocities onto the velocity-level constraints, as the closest
+/// velocities in the kinetic-energy norm: `min ½|V − V₀|²_M` subject to `B V + ∂C/∂t = 0`.
+/// Coordinate rates carry a negligible weight, so they follow from the constraints. Returns
+/// the largest change of a node velocity.
+pub fn project_initial_velocities(sys: &System, state: &mut State) -> f64 {
+    if sys.layout.n_rows == 0 {
+        return 0.0;
+    }
+    let lay = Layout::new(
+        Scheme::Ep,
+        sys.layout.n_nodes,
+        sys.layout.n_coords,
+        sys.layout.n_rows,
+    );
+    let mut blocks: Vec<Vec<usize>> = Vec::new();
+    for a in 0..lay.n_nodes {
+        blocks.push((0..6).map(|k| lay.node_delta(a) + k).collect());
+    }
+    for j in &sys.joints {
+        let mut b = Vec::new();
+        for s in &j.sides {
+            if let Side::Node(a) = s {
+                b.extend((0..6).map(|k| lay.node_delta(*a) + k));
+            }
+        }
+        b.extend(j.coords.iter().map(|&c| lay.coord_delta(c)));
+        b.extend((0..j.n_rows()).map(|r| lay.mult(j.row0 + r)));
+        blocks.push(b);
+    }
+    for d in &sys.drives {
+        blocks.push(vec![lay.coord_delta(d.coord), lay.mult(d.row)]);
+    }
+    for c in 0..lay.n_coords {
+        blocks.push(vec![lay.coord_delta(c)]);
+    }
+    let refs: Vec<&[usize]> = blocks.iter().map(|b| b.as_slice()).collect();
+    let (mut m, pos) = NewtonMatrix::from_blocks(lay.n_unknowns(), &refs);
+    let mut rhs = vec![0.0; lay.n_unknowns()];
+    let add = |m: &mut NewtonMatrix, block: usize, i: usize, j: usize, v: f64| {
+        let b = &blocks[block];
+        let n = b.len();
+        let li = b.iter().position(|&g| g == i).unwrap();
+        let lj = b.iter().position(|&g| g == j).unwrap();
+        m.values[pos[block][li * n + lj]] += v;
+    };
+    // Mass-weighting; massless nodes get a small weight so the problem stays regular.
+    let floor = 1e-8 * sys.mass_ref;
+    let mut mass = vec![floor; lay.n_nodes];
+    let mut inertia = vec![
+        crate::vec3::M3::<f64>::identity()
+            .scale_f(floor * sys.length_ref.powi(2));
+        lay.n_nodes
+    ];
+    for k in &sys.inertias {
+        mass[k.node] += k.mass;
+        inertia[k.node] = inertia[k.node] + k.inertia;
+    }
+    for a in 0..lay.n_nodes {
+        let d = lay.node_delta(a);
+        let n = &state.nodes[a];
+        for k in 0..3 {
+            add(&mut m, a, d + k, d + k, mass[a]);
+            rhs[d + k] = mass[a] * n.v.0[k];
+            let jw = inertia[a].mul_v(&n.w);
+            rhs[d + 3 + k] = jw.0[k];
+            for l in 0..3 {
+                add(&mut m, a, d + 3 + k, d + 3 + l, inertia[a].0[k][l]);
+            }
+        }
+    }
+    let coord_weight = 1e-10 * sys.mass_ref * sys.length_ref.powi(2);
+    for c in 0..lay.n_coords {
+        let b = blocks.len() - lay.n_coords + c;
+        add(
+            &mut m,
+            b,
+            lay.coord_delta(c),
+            lay.coord_delta(c),
+            coord_weight,
+        );
+        rhs[lay.coord_delta(c)] = coord_weight * state.coord_rates[c];
+    }
+    for (ji, j) in sys.joints.iter().enumerate() {
+        let (b, js) = j.rate_rows(state);
+        let blk = lay.n_nodes + ji;
+        for r in 0..j.n_rows() {
+            let row = lay.mult(j.row0 + r);
+            for (k, s) in j.sides.iter().enumerate() {
+                if let Side::Node(a) = s {
+                    let d = lay.node_delta(*a);
+                    // Material angular velocity: B_W = B_ω R.
+                    let bw =
+                        js.r[k].tmul_v(&V3([b[r][6 * k + 3], b[r][6 * k + 4], b[r][6 * k + 5]]));
+                    for c in 0..3 {
+                        for (col, v) in [(d + c, b[r][6 * k + c]), (d + 3 + c, bw.0[c])] {
+                            add(&mut m, blk, row, col, v);
+                            add(&mut m, blk, col, row, v);
+                        }
+                    }
+                }
+            }
+            for (c, &g) in j.coords.iter().enumerate() {
+                add(&mut m, blk, row, lay.coord_delta(g), b[r][12 + c]);
+                add(&mut m, blk, lay.coord_delta(g), row, b[r][12 + c]);
+            }
+        }
+    }
+    for (di, d) in sys.drives.iter().enumerate() {
+        let blk = lay.n_nodes + sys.joints.len() + di;
+        let row = lay.mult(d.row);
+        add(&mut m, blk, row, lay.coord_delta(d.coord), 1.0);
+        add(&mut m, blk, lay.coord_delta(d.coord), row, 1.0);
+        rhs[row] = d.function.rate(state.t);
+    }
+    if m.factor().is_err() {
+        return 0.0;
+    }
+    m.solve(&mut rhs);
+    let mut change = 0.0f64;
+    for a in 0..lay.n_nodes {
+        let d = lay.node_delta(a);
+        let v = V3([rhs[d], rhs[d + 1], rhs[d + 2]]);
+        let w = V3([rhs[d + 3], rhs[d + 4], rhs[d + 5]]);
+        let n = &mut state.nodes[a];
+        change = change
+            .max((v - n.v).norm())
+            .max((n.r.mul_v(&(w - n.w))).norm() * sys.length_ref);
+        n.v = v;
+        n.w = w;
+    }
+    for c in 0..lay.n_coords {
+        state.coord_rates[c] = rhs[lay.coord_delta(c)];
+    }
+    change
+}
