@@ -12,3 +12,6 @@ pub mod state;
 pub mod system;
 pub mod time_function;
 pub mod vec3;
+
+#[cfg(feature = "python")]
+mod python;

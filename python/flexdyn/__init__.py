@@ -1,0 +1,29 @@
+"""flexdyn: flexible multibody dynamics with energy-preserving (EP) and energy-decaying (ED)
+time integration (Bauchau & Bottasso 2001).
+
+    import flexdyn as fd
+    model = fd.load("examples/pendulum.yaml")          # or fd.Model(...) built in Python
+    res = fd.simulate(model, t_end=2.0, scheme="ed", out="pendulum.nc")
+    res["pin.phi"].plot()
+"""
+
+from ._core import FlexdynError, ModelError, SolverError
+from ._core import schema as _schema
+from .builder import Model, load
+from .results import open_results, simulate
+
+__all__ = [
+    "FlexdynError",
+    "Model",
+    "ModelError",
+    "SolverError",
+    "load",
+    "open_results",
+    "schema",
+    "simulate",
+]
+
+
+def schema() -> str:
+    """The JSON Schema of flexdyn model files."""
+    return _schema()

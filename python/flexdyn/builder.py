@@ -1,0 +1,184 @@
+"""Building models in Python. A Model is the same data as a YAML model file: the builder
+produces it, Rust validates it (errors name the offending item), and `to_yaml` writes it out.
+
+    m = Model("pendulum", gravity=[0, 0, -9.81])
+    m.node("bob", position=[1, 0, 0])
+    m.rigid_body("ball", node="bob", mass=2.0, inertia=[0.01, 0.01, 0.01])
+    m.revolute("pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0])
+    m.sensor("joint_coordinate", "angle", joint="pin")
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from . import _core
+
+GROUND = "ground"
+
+
+def _vec(v) -> list[float]:
+    return [float(x) for x in v]
+
+
+def _drop_none(d: dict) -> dict:
+    return {k: v for k, v in d.items() if v is not None}
+
+
+class Model:
+    """A flexdyn model, built item by item (every method returns the model, so calls chain)."""
+
+    def __init__(self, name: str = "", gravity=(0.0, 0.0, 0.0)):
+        self.data: dict[str, Any] = {
+            "name": name,
+            "gravity": _vec(gravity),
+            "nodes": [],
+            "bodies": [],
+            "joints": [],
+            "loads": [],
+            "sensors": [],
+            "simulation": {},
+        }
+
+    # --- items -------------------------------------------------------------------------
+    def node(self, name, position, *, velocity=None, angular_velocity=None, rotation_vector=None, matrix=None):
+        """A node (point with a triad). Velocities and orientation in the inertial frame."""
+        orientation = _drop_none(
+            {
+                "rotation_vector": _vec(rotation_vector) if rotation_vector is not None else None,
+                "matrix": [_vec(r) for r in matrix] if matrix is not None else None,
+            }
+        )
+        self.data["nodes"].append(
+            _drop_none(
+                {
+                    "name": name,
+                    "position": _vec(position),
+                    "orientation": orientation or None,
+                    "velocity": _vec(velocity) if velocity is not None else None,
+                    "angular_velocity": _vec(angular_velocity) if angular_velocity is not None else None,
+                }
+            )
+        )
+        return self
+
+    def rigid_body(self, name, node, mass, inertia, cm_offset=None):
+        """Rigid body on `node`; inertia about the centre of mass in the node's triad:
+        [I11, I22, I33] or a full 3x3 matrix."""
+        inertia = [_vec(r) for r in inertia] if hasattr(inertia[0], "__len__") else _vec(inertia)
+        self.data["bodies"].append(
+            _drop_none(
+                {
+                    "name": name,
+                    "node": node,
+                    "mass": float(mass),
+                    "inertia": inertia,
+                    "cm_offset": _vec(cm_offset) if cm_offset is not None else None,
+                }
+            )
+        )
+        return self
+
+    def _joint(self, kind, name, node1, node2, **fields):
+        self.data["joints"].append(_drop_none({"type": kind, "name": name, "node1": node1, "node2": node2, **fields}))
+        return self
+
+    def spherical(self, name, node1, node2, position=None):
+        return self._joint("spherical", name, node1, node2, position=_vec(position) if position is not None else None)
+
+    def revolute(self, name, node1, node2, axis, position=None, drive=None, spring=None):
+        """Revolute joint about `axis`; `drive` prescribes φ(t) (number, expression of t, or
+        {"t": [...], "value": [...]}); `spring` = {"stiffness", "damping", "rest"}."""
+        return self._joint(
+            "revolute",
+            name,
+            node1,
+            node2,
+            axis=_vec(axis),
+            position=_vec(position) if position is not None else None,
+            drive=drive,
+            spring=dict(spring) if spring is not None else None,
+        )
+
+    def universal(self, name, node1, node2, axis1, axis2, position=None):
+        return self._joint(
+            "universal",
+            name,
+            node1,
+            node2,
+            axis1=_vec(axis1),
+            axis2=_vec(axis2),
+            position=_vec(position) if position is not None else None,
+        )
+
+    def clamp(self, name, node1, node2):
+        return self._joint("clamp", name, node1, node2)
+
+    def force(self, name, node, value, scale=None):
+        """Dead point force (N, inertial frame) times an optional function of time."""
+        self.data["loads"].append(_drop_none({"type": "force", "name": name, "node": node, "value": _vec(value), "scale": scale}))
+        return self
+
+    def moment(self, name, node, value, scale=None):
+        self.data["loads"].append(_drop_none({"type": "moment", "name": name, "node": node, "value": _vec(value), "scale": scale}))
+        return self
+
+    def sensor(self, kind, name, **fields):
+        """A sensor: node_position, node_displacement, node_rotation, node_velocity (node=...),
+        joint_coordinate, joint_reaction, drive_force (joint=...), energy."""
+        self.data["sensors"].append({"type": kind, "name": name, **fields})
+        return self
+
+    def settings(self, **fields):
+        """Simulation settings: scheme ("ep"/"ed"), t_end, dt, output_dt, newton_tol, ..."""
+        self.data["simulation"].update(fields)
+        return self
+
+    # --- conversion ------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        return copy.deepcopy(self.data)
+
+    def to_json(self) -> str:
+        return json.dumps(self.data)
+
+    def validate(self) -> "Model":
+        """Raises ModelError naming every offending item."""
+        _core.parse_json(self.to_json())
+        return self
+
+    def to_yaml(self, path: str | Path | None = None) -> str:
+        text = yaml.safe_dump(json.loads(_core.parse_json(self.to_json())), sort_keys=False)
+        if path is not None:
+            Path(path).write_text(text)
+        return text
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "Model":
+        m = cls()
+        m.data = copy.deepcopy(data)
+        for key in ("nodes", "bodies", "joints", "loads", "sensors"):
+            m.data.setdefault(key, [])
+        m.data.setdefault("simulation", {})
+        return m
+
+    def __repr__(self) -> str:
+        d = self.data
+        return (
+            f"Model({d.get('name')!r}: {len(d['nodes'])} nodes, {len(d['bodies'])} bodies, "
+            f"{len(d['joints'])} joints, {len(d['sensors'])} sensors)"
+        )
+
+
+def load(path: str | Path) -> Model:
+    """Loads and validates a YAML model file (errors name the item, e.g. `joints[3].axis`)."""
+    text = Path(path).read_text()
+    try:
+        canonical = _core.parse_yaml(text)
+    except _core.ModelError as e:
+        raise _core.ModelError(f"{path}: {e}") from None
+    return Model.from_dict(json.loads(canonical))

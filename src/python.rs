@@ -1,0 +1,190 @@
+//! The PyO3 module `flexdyn._core`: conversions and error mapping only.
+
+use crate::model::{self, Scheme};
+use crate::simulation::{SimError, Simulation};
+use numpy::{PyArray1, PyArray2, PyArrayMethods};
+use pyo3::create_exception;
+use pyo3::exceptions::PyException;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+create_exception!(
+    _core,
+    FlexdynError,
+    PyException,
+    "Base class of flexdyn's errors."
+);
+create_exception!(
+    _core,
+    ModelError,
+    FlexdynError,
+    "The model is invalid; the message names the offending item."
+);
+create_exception!(
+    _core,
+    SolverError,
+    FlexdynError,
+    "A step could not be completed; the message says where and why."
+);
+
+fn model_err(e: model::ModelErrors) -> PyErr {
+    ModelError::new_err(e.to_string())
+}
+
+/// Parses and validates YAML model text; returns the canonical JSON of the model.
+#[pyfunction]
+fn parse_yaml(text: &str) -> PyResult<String> {
+    let m = model::from_yaml_str(text).map_err(model_err)?;
+    Ok(serde_json::to_string(&m).expect("model serialises"))
+}
+
+/// Validates JSON model text (what the builder produces); returns its canonical JSON.
+#[pyfunction]
+fn parse_json(text: &str) -> PyResult<String> {
+    let m = model::from_json_str(text).map_err(model_err)?;
+    Ok(serde_json::to_string(&m).expect("model serialises"))
+}
+
+/// The JSON Schema of the model file.
+#[pyfunction]
+fn schema() -> String {
+    model::json_schema()
+}
+
+#[pyclass(name = "Simulation", module = "flexdyn._core", unsendable)]
+struct PySimulation {
+    sim: Simulation,
+}
+
+#[pymethods]
+impl PySimulation {
+    /// Builds a simulation from JSON model text; `scheme` ("ep"/"ed") overrides the model's.
+    #[new]
+    #[pyo3(signature = (model_json, scheme=None))]
+    fn new(model_json: &str, scheme: Option<&str>) -> PyResult<Self> {
+        let m = model::from_json_str(model_json).map_err(model_err)?;
+        let scheme = match scheme {
+            None => m.simulation.scheme,
+            Some("ep") => Scheme::Ep,
+            Some("ed") => Scheme::Ed,
+            Some(other) => {
+                return Err(ModelError::new_err(format!(
+                    "scheme: must be \"ep\" or \"ed\" (got \"{other}\")"
+                )))
+            }
+        };
+        let sim = Simulation::with_scheme(&m, scheme).map_err(|e| match e {
+            SimError::Model(e) => model_err(e),
+            SimError::Step(e) => SolverError::new_err(e.to_string()),
+        })?;
+        Ok(PySimulation { sim })
+    }
+
+    /// Advances to time `t` (clamped to t_end). Raises SolverError if a step cannot be
+    /// completed; the samples recorded before the failure stay available via take_samples().
+    fn advance_to(&mut self, py: Python<'_>, t: f64) -> PyResult<()> {
+        let sim = &mut self.sim;
+        py.detach(|| sim.advance_to(t)).map_err(|e| {
+            SolverError::new_err(format!(
+                "{e}\nThe run stopped at t = {:.6} s; every completed step was recorded.",
+                self.sim.state.t
+            ))
+        })
+    }
+
+    /// Samples recorded since the last call: (times[n], values[n, channels]).
+    fn take_samples<'py>(
+        &mut self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray2<f64>>)> {
+        let (t, v) = self.sim.take_samples();
+        let n = t.len();
+        let m = self.sim.channels.len();
+        let times = PyArray1::from_vec(py, t);
+        let values = PyArray1::from_vec(py, v).reshape([n, m])?;
+        Ok((times, values))
+    }
+
+    #[getter]
+    fn channel_names(&self) -> Vec<String> {
+        self.sim.channels.names.clone()
+    }
+    #[getter]
+    fn channel_units(&self) -> Vec<String> {
+        self.sim
+            .channels
+            .units
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
+    }
+    #[getter]
+    fn t(&self) -> f64 {
+        self.sim.state.t
+    }
+    #[getter]
+    fn t_end(&self) -> f64 {
+        self.sim.settings.t_end
+    }
+    #[getter]
+    fn dt(&self) -> f64 {
+        self.sim.settings.dt
+    }
+    #[getter]
+    fn scheme(&self) -> &'static str {
+        match self.sim.system.layout.scheme {
+            Scheme::Ep => "ep",
+            Scheme::Ed => "ed",
+        }
+    }
+    #[getter]
+    fn done(&self) -> bool {
+        self.sim.done()
+    }
+    #[getter]
+    fn warnings(&self) -> Vec<String> {
+        self.sim.warnings.clone()
+    }
+    #[getter]
+    fn energy(&self) -> f64 {
+        self.sim.energy()
+    }
+    /// Run statistics: steps, halvings, Newton iterations, factorizations, invariants.
+    #[getter]
+    fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let s = &self.sim.stats;
+        let d = PyDict::new(py);
+        d.set_item("steps", s.steps)?;
+        d.set_item("halvings", s.halvings)?;
+        d.set_item("newton_iterations", s.newton_iterations)?;
+        d.set_item("factorizations", s.factorizations)?;
+        d.set_item("symbolic_factorizations", s.symbolic_factorizations)?;
+        d.set_item("max_constraint_violation", s.max_constraint_violation)?;
+        d.set_item("max_constraint_work", s.max_constraint_work)?;
+        d.set_item("max_energy_defect", s.max_energy_defect)?;
+        d.set_item("unknowns", self.sim.system.layout.n_unknowns())?;
+        Ok(d)
+    }
+    /// Residual norms of the Newton iterations of the last step.
+    #[getter]
+    fn last_residuals(&self) -> Vec<f64> {
+        self.sim
+            .last_report
+            .as_ref()
+            .map(|r| r.residuals.clone())
+            .unwrap_or_default()
+    }
+}
+
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(parse_yaml, m)?)?;
+    m.add_function(wrap_pyfunction!(parse_json, m)?)?;
+    m.add_function(wrap_pyfunction!(schema, m)?)?;
+    m.add_class::<PySimulation>()?;
+    let py = m.py();
+    m.add("FlexdynError", py.get_type::<FlexdynError>())?;
+    m.add("ModelError", py.get_type::<ModelError>())?;
+    m.add("SolverError", py.get_type::<SolverError>())?;
+    Ok(())
+}
