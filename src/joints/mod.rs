@@ -588,3 +588,63 @@ pub mod law_tests {
         assert!(r < 1e-8, "rate operator wrong: {r:e}");
     }
 }
+
+#[cfg(test)]
+mod kernel_tests {
+    //! Every joint kernel's tangent against central differences of its residual, for EP and
+    //! ED, with one side a node and the other a node or the ground.
+    use super::*;
+    use crate::elements::fd_harness::tangent_error;
+    use crate::model::Scheme;
+    use crate::rotation::exp_map;
+    use crate::state::{NodeState, State};
+
+    fn attachments() -> [Attachment; 2] {
+        [
+            Attachment { offset: V3([0.3, -0.2, 0.5]), triad: exp_map(&V3([0.1, 0.2, 0.3])) },
+            Attachment { offset: V3([-0.4, 0.1, 0.2]), triad: exp_map(&V3([0.0, -0.5, 0.3])) },
+        ]
+    }
+
+    fn laws() -> Vec<JointLaw> {
+        let at = attachments();
+        vec![
+            JointLaw::Spherical(spherical::Spherical { at }),
+            JointLaw::Universal(universal::Universal { at }),
+            JointLaw::Revolute(revolute::Revolute { at }),
+            JointLaw::Clamp(clamp::Clamp { at }),
+        ]
+    }
+
+    #[test]
+    fn joint_tangents_match_finite_differences() {
+        let node = |k: f64| NodeState {
+            x: V3([0.1 * k, -0.2, 0.3 * k]),
+            r: exp_map(&V3([0.4 * k, -0.2, 0.9])),
+            v: V3([1.0, -2.0 * k, 0.5]),
+            w: V3([0.3, 5.0, -1.0 * k]),
+        };
+        let state = State { t: 0.1, nodes: vec![node(1.0), node(-0.7)], coords: vec![0.3], coord_rates: vec![-0.8], lambda: vec![] };
+        for scheme in [Scheme::Ep, Scheme::Ed] {
+            for law in laws() {
+                for ground in [false, true] {
+                    let nq = law.n_coords();
+                    let nr = law.n_rows();
+                    let layout = Layout::new(scheme, 2, nq, nr);
+                    let sides = if ground {
+                        [Side::Ground { x: V3([0.5, 0.0, 0.1]), r: exp_map(&V3([0.2, 0.1, 0.0])) }, Side::Node(1)]
+                    } else {
+                        [Side::Node(0), Side::Node(1)]
+                    };
+                    let kind = format!("{scheme:?} {law:?} ground={ground}");
+                    let k = JointKernel::new("j".into(), law.clone(), sides, (0..nq).collect(), 0, &layout);
+                    let ctx = StepCtx { layout, h: 0.01, t_i: 0.1, t_f: 0.11, s: 30.0, state: &state, gravity: V3([0.0; 3]) };
+                    let y: Vec<f64> = (0..layout.n_unknowns()).map(|i| 0.02 * ((i as f64) * 1.3).sin()).collect();
+                    let e = tangent_error(&k, &ctx, &y);
+                    // Same bound as the other kernels: FD truncation and round-off, relative to |J|.
+                    assert!(e < 1e-7, "{kind}: tangent error {e:e}");
+                }
+            }
+        }
+    }
+}
