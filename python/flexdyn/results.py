@@ -79,13 +79,17 @@ def simulate(
     newton_tol: float | None = None,
     out: str | Path | None = None,
     progress: bool = False,
+    on_chunk=None,
 ) -> xr.Dataset:
     """Runs a model (a Model, a dict, or a YAML path) and returns its sensors as an
     xarray.Dataset with a `time` coordinate; with `out`, streams them to that NetCDF file.
 
-    Keyword arguments override the model's `simulation` settings. If a step cannot be
-    completed, SolverError is raised after every completed step has been written to `out`;
-    the partial results are on the exception as `.results`.
+    Keyword arguments override the model's `simulation` settings. With `out`, samples go to
+    disk chunk by chunk and are not kept in memory: the returned dataset reads the file
+    lazily, so memory stays flat however long the run. `on_chunk(times, values)` is called
+    for every chunk (live plots, custom sinks). If a step cannot be completed, SolverError is
+    raised after every completed step has been written; the partial results are on the
+    exception as `.results`.
     """
     if isinstance(model, (str, Path)):
         model = load(model)
@@ -108,10 +112,13 @@ def simulate(
             except _core.SolverError as e:
                 error = e
             t, v = sim.take_samples()
-            chunks_t.append(t)
-            chunks_v.append(v)
+            if on_chunk is not None:
+                on_chunk(t, v)
             if writer:
                 writer.append(t, v)
+            else:
+                chunks_t.append(t)
+                chunks_v.append(v)
             if progress:
                 _progress(sim.t, sim.t_end, start)
             if error is not None:
@@ -130,9 +137,12 @@ def simulate(
             writer.close()
         if progress:
             sys.stderr.write("\n")
-    times = np.concatenate(chunks_t) if chunks_t else np.zeros(0)
-    values = np.concatenate(chunks_v) if chunks_v else np.zeros((0, len(names)))
-    ds = _dataset(times, values, names, units, {**attrs, **run_attrs})
+    if writer:
+        ds = xr.open_dataset(out)
+    else:
+        times = np.concatenate(chunks_t) if chunks_t else np.zeros(0)
+        values = np.concatenate(chunks_v) if chunks_v else np.zeros((0, len(names)))
+        ds = _dataset(times, values, names, units, {**attrs, **run_attrs})
     ds.attrs["stats"] = stats
     ds.attrs["warnings_list"] = list(sim.warnings)
     if error is not None:

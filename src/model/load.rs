@@ -32,8 +32,13 @@ pub fn from_json_str(text: &str) -> Result<Model, ModelErrors> {
     Ok(model)
 }
 
-/// Serde's message for an untagged enum says nothing useful; say what is accepted.
+/// Serde's message for an untagged enum says nothing useful; say what is accepted. The YAML
+/// parser prefixes its own (coarser) path, which is dropped in favour of the full path.
 fn clean(msg: &str) -> String {
+    let msg = match msg.split_once(": ") {
+        Some((head, rest)) if !head.is_empty() && !head.contains(' ') => rest,
+        _ => msg,
+    };
     if msg.contains("did not match any variant of untagged enum Inertia") {
         return "must be [I11, I22, I33] or a 3×3 matrix of numbers".into();
     }

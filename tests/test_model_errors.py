@@ -1,0 +1,100 @@
+"""Bad input gets a one-line error naming the offending item (issue 2)."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+import flexdyn as fd
+
+BASE = """
+gravity: [0, 0, -9.81]
+nodes:
+  - {name: a, position: [0, 0, 0]}
+  - {name: b, position: [1, 0, 0]}
+bodies:
+  - {name: body_a, node: a, mass: 1.0, inertia: [1, 1, 1]}
+  - {name: body_b, node: b, mass: 1.0, inertia: [1, 1, 1]}
+joints:
+  - {type: revolute, name: pin, node1: ground, node2: a, axis: [0, 0, 1]}
+  - {type: spherical, name: ball, node1: a, node2: b}
+"""
+
+
+def load_text(tmp_path, text):
+    p = tmp_path / "model.yaml"
+    p.write_text(text)
+    return fd.load(p)
+
+
+CASES = [
+    # (replace this, with that, expected fragments of the message)
+    ("type: spherical", "type: hinge", ["joints[1]", "unknown variant `hinge`"]),
+    ("node2: b}", "node2: c}", ["joints[1].node2", "node `c`"]),
+    ("mass: 1.0, inertia: [1, 1, 1]}\n  - {name: body_b", "mass: -2.0, inertia: [1, 1, 1]}\n  - {name: body_b", ["bodies[0].mass", "body_a", "positive"]),
+    ("inertia: [1, 1, 1]}\n  - {name: body_b", "inertia: [1, -1, 1]}\n  - {name: body_b", ["bodies[0].inertia", "body_a", "positive definite"]),
+    ("name: ball", "name: pin", ["joints[1].name", "duplicate name `pin`"]),
+    ("node: b, mass", "node: nowhere, mass", ["bodies[1].node", "node `nowhere`"]),
+    ("axis: [0, 0, 1]}", "axis: [0, 0, 1], drive: 'sin(t'}", ["joints[0].drive", "cannot parse"]),
+    ("axis: [0, 0, 1]}", "axis: [0, 0, 1], drive: 'os.system(t)'}", ["joints[0].drive"]),
+    ("axis: [0, 0, 1]}", "axis: [0, 0, 2]}", ["joints[0].axis", "must be a unit vector"]),
+    ("axis: [0, 0, 1]}", "axsi: [0, 0, 1]}", ["joints[0]", "axsi"]),
+    ("name: a, position", "name: ground, position", ["nodes[0].name", "reserved"]),
+]
+
+
+@pytest.mark.parametrize("old,new,fragments", CASES, ids=[c[1][:30] for c in CASES])
+def test_bad_input_names_the_item(tmp_path, old, new, fragments):
+    assert old in BASE
+    with pytest.raises(fd.ModelError) as e:
+        load_text(tmp_path, BASE.replace(old, new, 1))
+    msg = str(e.value)
+    for f in fragments:
+        assert f in msg, msg
+    # One line per problem (the file name prefixes the first).
+    assert all(line.strip() for line in msg.splitlines())
+
+
+def test_the_base_model_is_valid(tmp_path):
+    m = load_text(tmp_path, BASE)
+    assert len(m.data["joints"]) == 2
+
+
+def test_all_problems_are_reported_at_once(tmp_path):
+    text = BASE.replace("mass: 1.0", "mass: 0.0", 1).replace("node2: b}", "node2: c}")
+    with pytest.raises(fd.ModelError) as e:
+        load_text(tmp_path, text)
+    assert len(str(e.value).splitlines()) == 2
+
+
+def test_builder_errors_match_yaml_errors():
+    m = fd.Model()
+    m.node("a", [0, 0, 0]).rigid_body("body", "a", mass=1.0, inertia=[[1, 2, 0], [2, 1, 0], [0, 0, 1]])
+    with pytest.raises(fd.ModelError, match=r"bodies\[0\]\.inertia: body `body`: inertia must be positive definite"):
+        m.validate()
+
+
+def test_builder_and_yaml_give_the_same_model(tmp_path):
+    m = load_text(tmp_path, BASE)
+    text = m.to_yaml(tmp_path / "again.yaml")
+    again = fd.load(tmp_path / "again.yaml")
+    assert again.to_dict() == m.to_dict()
+    assert "revolute" in text
+
+
+def test_schema_is_generated_from_the_types():
+    schema = json.loads(fd.schema())
+    joint_kinds = json.dumps(schema["$defs"]["Joint"])
+    for kind in ["spherical", "revolute", "universal", "clamp"]:
+        assert kind in joint_kinds
+    out = subprocess.run([sys.executable, "-m", "flexdyn.cli", "schema"], capture_output=True, text=True, check=True)
+    assert json.loads(out.stdout) == schema
+
+
+def test_cli_validate_reports_errors(tmp_path):
+    p = tmp_path / "bad.yaml"
+    p.write_text(BASE.replace("axis: [0, 0, 1]", "axis: [0, 0, 3]"))
+    out = subprocess.run([sys.executable, "-m", "flexdyn.cli", "validate", str(p)], capture_output=True, text=True)
+    assert out.returncode == 2
+    assert "joints[0].axis: must be a unit vector" in out.stderr
