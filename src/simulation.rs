@@ -75,9 +75,16 @@ impl Simulation {
             .iter()
             .map(|n| n.v.norm() + n.omega().norm() * system.length_ref)
             .fold(1e-12f64, f64::max);
-        if change > 1e-9 * v_scale {
+        // Velocities the model did not give are simply completed; changing given ones is said.
+        let changed: Vec<String> = (0..change.len())
+            .filter(|&a| system.velocity_given[a] && change[a] > 1e-9 * v_scale)
+            .map(|a| format!("`{}`", system.node_names[a]))
+            .collect();
+        if !changed.is_empty() {
+            let worst = change.iter().cloned().fold(0.0, f64::max);
             warnings.push(format!(
-                "initial velocities adjusted by up to {change:.3e} m/s (or rad/s·m) to satisfy the joints' velocity constraints"
+                "initial velocities of node(s) {} were adjusted to satisfy the joints' velocity constraints (largest change {worst:.4} m/s, or rad/s times the model size); give consistent velocities to avoid this",
+                changed.join(", ")
             ));
         }
         let integrator = Integrator::new(&system, &settings);
@@ -219,10 +226,11 @@ impl Simulation {
 /// Projects the initial velocities onto the velocity-level constraints, as the closest
 /// velocities in the kinetic-energy norm: `min ½|V − V₀|²_M` subject to `B V + ∂C/∂t = 0`.
 /// Coordinate rates carry a negligible weight, so they follow from the constraints. Returns
-/// the largest change of a node velocity.
-pub fn project_initial_velocities(sys: &System, state: &mut State) -> f64 {
+/// each node's velocity change (translational, or rotational times the model size).
+pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
+    let mut change = vec![0.0; sys.layout.n_nodes];
     if sys.layout.n_rows == 0 {
-        return 0.0;
+        return change;
     }
     let lay = Layout::new(
         Scheme::Ep,
@@ -263,15 +271,19 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> f64 {
     };
     // Mass-weighting; massless nodes get a small weight so the problem stays regular.
     let floor = 1e-8 * sys.mass_ref;
-    let mut mass = vec![floor; lay.n_nodes];
-    let mut inertia = vec![
-        crate::vec3::M3::<f64>::identity()
-            .scale_f(floor * sys.length_ref.powi(2));
-        lay.n_nodes
-    ];
+    let mut mass = vec![0.0; lay.n_nodes];
+    let mut inertia = vec![crate::vec3::M3::<f64>::zero(); lay.n_nodes];
     for k in &sys.inertias {
         mass[k.node] += k.mass;
         inertia[k.node] = inertia[k.node] + k.inertia;
+    }
+    for a in 0..lay.n_nodes {
+        if mass[a] <= 0.0 {
+            mass[a] = floor;
+        }
+        if inertia[a].max_abs() <= 0.0 {
+            inertia[a] = crate::vec3::M3::identity().scale_f(floor * sys.length_ref.powi(2));
+        }
     }
     for a in 0..lay.n_nodes {
         let d = lay.node_delta(a);
@@ -331,18 +343,15 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> f64 {
         rhs[row] = d.function.rate(state.t);
     }
     if m.factor().is_err() {
-        return 0.0;
+        return change;
     }
     m.solve(&mut rhs);
-    let mut change = 0.0f64;
     for a in 0..lay.n_nodes {
         let d = lay.node_delta(a);
         let v = V3([rhs[d], rhs[d + 1], rhs[d + 2]]);
         let w = V3([rhs[d + 3], rhs[d + 4], rhs[d + 5]]);
         let n = &mut state.nodes[a];
-        change = change
-            .max((v - n.v).norm())
-            .max((n.r.mul_v(&(w - n.w))).norm() * sys.length_ref);
+        change[a] = (v - n.v).norm().max((n.r.mul_v(&(w - n.w))).norm() * sys.length_ref);
         n.v = v;
         n.w = w;
     }

@@ -96,3 +96,18 @@ def test_cli_run_failure_exits_nonzero_and_keeps_partial_file(tmp_path):
     assert p.returncode == 3
     assert "node `disk`" in p.stderr and "partial results" in p.stderr
     assert xr.open_dataset(out).sizes["time"] > 700
+
+
+def test_inconsistent_given_velocities_are_projected_and_reported():
+    m = fd.Model("pendulum", gravity=[0, 0, -9.81])
+    # The bob is given a radial velocity component, which the pin does not allow.
+    m.node("bob", [1, 0, 0], velocity=[0.3, 0, -2.0])
+    m.rigid_body("ball", "bob", mass=2.0, inertia=[0.01] * 3)
+    m.revolute("pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0])
+    m.sensor("node_velocity", "v", node="bob")
+    res = fd.simulate(m, scheme="ed", dt=1e-3, t_end=0.01)
+    (w,) = res.attrs["warnings_list"]
+    assert "`bob`" in w and "adjusted" in w
+    # The kinetic-energy-closest admissible velocity keeps the tangential part only.
+    assert res["v.vx"].values[0] == pytest.approx(0.0, abs=1e-12)
+    assert res["v.vz"].values[0] == pytest.approx(-2.0 * 2.0 / (2.0 + 0.01), rel=1e-9)

@@ -53,12 +53,12 @@ pub struct Node {
     /// Initial orientation of the node's triad relative to the inertial frame.
     #[serde(default)]
     pub orientation: Orientation,
-    /// Initial velocity, m/s, inertial frame.
-    #[serde(default)]
-    pub velocity: Vec3,
-    /// Initial angular velocity, rad/s, inertial frame.
-    #[serde(default)]
-    pub angular_velocity: Vec3,
+    /// Initial velocity, m/s, inertial frame (default zero; completed to satisfy the joints).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub velocity: Option<Vec3>,
+    /// Initial angular velocity, rad/s, inertial frame (default zero).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angular_velocity: Option<Vec3>,
 }
 
 /// Orientation of a triad: give at most one of the fields (none means aligned with the

@@ -183,8 +183,12 @@ impl Model {
         for (i, n) in self.nodes.iter().enumerate() {
             let p = format!("nodes[{i}]");
             c.vec3(format!("{p}.position"), &n.position);
-            c.vec3(format!("{p}.velocity"), &n.velocity);
-            c.vec3(format!("{p}.angular_velocity"), &n.angular_velocity);
+            if let Some(v) = &n.velocity {
+                c.vec3(format!("{p}.velocity"), v);
+            }
+            if let Some(v) = &n.angular_velocity {
+                c.vec3(format!("{p}.angular_velocity"), v);
+            }
             let o = &n.orientation;
             if o.matrix.is_some() && o.rotation_vector.is_some() {
                 c.err(

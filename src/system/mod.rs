@@ -47,6 +47,8 @@ pub struct System {
     pub mass_ref: f64,
     /// Characteristic length (extent of the initial configuration), for tolerances.
     pub length_ref: f64,
+    /// Per node: whether the model gave its initial velocity (else zero, to be completed).
+    pub velocity_given: Vec<bool>,
 }
 
 fn orientation(o: &model::Orientation) -> M3<f64> {
@@ -85,15 +87,14 @@ impl System {
         // Nodes, then one internal node per body whose centre of mass is offset.
         let mut node_names: Vec<String> = Vec::new();
         let mut nodes: Vec<NodeState> = Vec::new();
+        let mut velocity_given: Vec<bool> = Vec::new();
         for n in &model.nodes {
             let r = orientation(&n.orientation);
             node_names.push(n.name.clone());
-            nodes.push(NodeState {
-                x: V3(n.position),
-                r,
-                v: V3(n.velocity),
-                w: r.tmul_v(&V3(n.angular_velocity)),
-            });
+            let v = V3(n.velocity.unwrap_or_default());
+            let w = r.tmul_v(&V3(n.angular_velocity.unwrap_or_default()));
+            nodes.push(NodeState { x: V3(n.position), r, v, w });
+            velocity_given.push(n.velocity.is_some() || n.angular_velocity.is_some());
         }
         let index: HashMap<String, usize> = node_names
             .iter()
@@ -122,6 +123,7 @@ impl System {
                 };
                 node_names.push(format!("{}.cm", b.name));
                 nodes.push(cm);
+                velocity_given.push(velocity_given[a]);
                 mass.push(b.mass);
                 inertia.push(j);
                 cm_links.push((b.name.clone(), a, nodes.len() - 1, c));
@@ -379,6 +381,7 @@ impl System {
             initial,
             mass_ref,
             length_ref,
+            velocity_given,
         })
     }
 
