@@ -90,7 +90,54 @@ impl Integrator {
         }
     }
 
-    fn assemble(&mut self, sys: &System, ctx: &StepCtx, with_jacobian: bool) {
+    /// Predictor: constant velocity; multipliers from the last step.
+    pub fn predict(&mut self, sys: &System, state: &State, h: f64) {
+        let layout = sys.layout;
+        let ed = layout.ed();
+        let s = Self::scaling(sys, h);
+        self.y.iter_mut().for_each(|v| *v = 0.0);
+        for (a, n) in state.nodes.iter().enumerate() {
+            let d = layout.node_delta(a);
+            n.v.scale_f(h).write_to(&mut self.y[d..]);
+            n.w.scale_f(h).write_to(&mut self.y[d + 3..]);
+            if ed {
+                let j = layout.node_jump(a);
+                n.v.write_to(&mut self.y[j..]);
+                n.w.write_to(&mut self.y[j + 3..]);
+            }
+        }
+        for c in 0..layout.n_coords {
+            self.y[layout.coord_delta(c)] = h * state.coord_rates[c];
+            if ed {
+                self.y[layout.coord_jump(c)] = state.coord_rates[c];
+            }
+        }
+        for r in 0..layout.n_rows {
+            self.y[layout.mult(r)] = state.lambda[r] / s;
+        }
+    }
+
+    /// One Newton iteration from the current unknowns: assemble residual and tangent, factor
+    /// (numeric only), solve, update. Returns the residual norm before the update.
+    pub fn newton_iteration(&mut self, sys: &System, ctx: &StepCtx) -> Result<f64, String> {
+        self.assemble(sys, ctx, true);
+        let (rn, _) = Self::inf_norm(&self.res);
+        self.solve_update()?;
+        Ok(rn)
+    }
+
+    /// Factors the assembled tangent (symbolic analysis reused) and applies the Newton update.
+    fn solve_update(&mut self) -> Result<(), String> {
+        self.matrix.factor()?;
+        self.matrix.solve(&mut self.res);
+        for (y, d) in self.y.iter_mut().zip(self.res.iter()) {
+            *y -= d;
+        }
+        Ok(())
+    }
+
+    /// Assembles the residual (and the tangent values if asked) at the current unknowns.
+    pub fn assemble(&mut self, sys: &System, ctx: &StepCtx, with_jacobian: bool) {
         self.res.iter_mut().for_each(|r| *r = 0.0);
         if with_jacobian {
             self.matrix.clear();
@@ -149,7 +196,6 @@ impl Integrator {
         h: f64,
     ) -> Result<(State, StepReport), StepFailure> {
         let layout = sys.layout;
-        let ed = layout.ed();
         let s = Self::scaling(sys, h);
         let ctx = StepCtx {
             layout,
@@ -166,27 +212,7 @@ impl Integrator {
             reason,
         };
 
-        // Predictor: constant velocity; multipliers from the last step.
-        self.y.iter_mut().for_each(|v| *v = 0.0);
-        for (a, n) in state.nodes.iter().enumerate() {
-            let d = layout.node_delta(a);
-            n.v.scale_f(h).write_to(&mut self.y[d..]);
-            n.w.scale_f(h).write_to(&mut self.y[d + 3..]);
-            if ed {
-                let j = layout.node_jump(a);
-                n.v.write_to(&mut self.y[j..]);
-                n.w.write_to(&mut self.y[j + 3..]);
-            }
-        }
-        for c in 0..layout.n_coords {
-            self.y[layout.coord_delta(c)] = h * state.coord_rates[c];
-            if ed {
-                self.y[layout.coord_jump(c)] = state.coord_rates[c];
-            }
-        }
-        for r in 0..layout.n_rows {
-            self.y[layout.mult(r)] = state.lambda[r] / s;
-        }
+        self.predict(sys, state, h);
 
         let mut report = StepReport::default();
         let mut f_ref = 0.0;
@@ -218,11 +244,7 @@ impl Integrator {
                     sys.describe_row(worst)
                 )));
             }
-            self.matrix.factor().map_err(|e| fail(e))?;
-            self.matrix.solve(&mut self.res);
-            for (y, d) in self.y.iter_mut().zip(self.res.iter()) {
-                *y -= d;
-            }
+            self.solve_update().map_err(fail)?;
             if let Some(bad) = self.y.iter().position(|v| !v.is_finite()) {
                 return Err(fail(format!(
                     "singular Newton matrix (no finite update) at {}",

@@ -1,0 +1,48 @@
+"""Times whole simulations and prints steps, Newton iterations, factorizations and wall time.
+
+    python benches/simulate.py            # the examples and a chain of pendulums, EP and ED
+"""
+
+import time
+from pathlib import Path
+
+import flexdyn as fd
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def chain(n, length=0.5):
+    """n rigid links hanging from the ground by revolute joints (a planar chain in 3-D)."""
+    m = fd.Model(f"chain_{n}", gravity=[0, 0, -9.81])
+    for i in range(n):
+        m.node(f"n{i}", [length * (i + 0.5), 0, 0])
+        m.rigid_body(f"link{i}", f"n{i}", mass=1.0, inertia=[1e-3, length**2 / 12, length**2 / 12])
+        m.revolute(f"pin{i}", "ground" if i == 0 else f"n{i - 1}", f"n{i}", axis=[0, 1, 0], position=[length * i, 0, 0])
+    m.sensor("energy", "energy")
+    return m
+
+
+def run(label, model, **kw):
+    t0 = time.perf_counter()
+    res = fd.simulate(model, **kw)
+    wall = time.perf_counter() - t0
+    s = res.attrs["stats"]
+    print(
+        f"{label:<28} {res.attrs['scheme']:>3} {s['unknowns']:>6} {s['steps']:>7} "
+        f"{s['newton_iterations'] / max(s['steps'], 1):>6.2f} {s['factorizations']:>7} "
+        f"{wall:>8.3f} {1e6 * wall / max(s['steps'], 1):>9.1f}"
+    )
+
+
+def main():
+    print(f"{'case':<28} {'sch':>3} {'unkn':>6} {'steps':>7} {'it/st':>6} {'factor':>7} {'wall s':>8} {'us/step':>9}")
+    for path in sorted((ROOT / "examples").glob("*.yaml")):
+        for scheme in ("ep", "ed"):
+            run(path.stem, fd.load(path), scheme=scheme)
+    for n in (4, 16, 64):
+        for scheme in ("ep", "ed"):
+            run(f"chain of {n}", chain(n), scheme=scheme, dt=1e-3, t_end=1.0)
+
+
+if __name__ == "__main__":
+    main()
