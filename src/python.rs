@@ -162,6 +162,7 @@ impl PySimulation {
         d.set_item("max_constraint_violation", s.max_constraint_violation)?;
         d.set_item("max_constraint_work", s.max_constraint_work)?;
         d.set_item("max_energy_defect", s.max_energy_defect)?;
+        d.set_item("pattern_misses", s.pattern_misses)?;
         d.set_item("unknowns", self.sim.system.layout.n_unknowns())?;
         Ok(d)
     }

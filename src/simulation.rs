@@ -24,6 +24,8 @@ pub struct RunStats {
     pub max_constraint_work: f64,
     /// Largest |ΔE − W_drive − W_ext − W_damp + D| of a step: the energy identity's defect.
     pub max_energy_defect: f64,
+    /// Assemblies whose tangent had an entry outside the detected sparsity pattern.
+    pub pattern_misses: usize,
 }
 
 #[derive(Debug)]
@@ -202,6 +204,7 @@ impl Simulation {
         self.stats.newton_iterations = self.integrator.total_iterations;
         self.stats.factorizations = self.integrator.matrix.numeric_factorizations;
         self.stats.symbolic_factorizations = self.integrator.matrix.symbolic_factorizations;
+        self.stats.pattern_misses = self.integrator.pattern_misses;
         Ok(())
     }
 
@@ -260,7 +263,7 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
         blocks.push(vec![lay.coord_delta(c)]);
     }
     let refs: Vec<&[usize]> = blocks.iter().map(|b| b.as_slice()).collect();
-    let (mut m, pos) = NewtonMatrix::from_blocks(lay.n_unknowns(), &refs);
+    let (mut m, pos) = NewtonMatrix::from_blocks(lay.n_unknowns(), &refs, None);
     let mut rhs = vec![0.0; lay.n_unknowns()];
     let add = |m: &mut NewtonMatrix, block: usize, i: usize, j: usize, v: f64| {
         let b = &blocks[block];
@@ -351,7 +354,9 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
         let v = V3([rhs[d], rhs[d + 1], rhs[d + 2]]);
         let w = V3([rhs[d + 3], rhs[d + 4], rhs[d + 5]]);
         let n = &mut state.nodes[a];
-        change[a] = (v - n.v).norm().max((n.r.mul_v(&(w - n.w))).norm() * sys.length_ref);
+        change[a] = (v - n.v)
+            .norm()
+            .max((n.r.mul_v(&(w - n.w))).norm() * sys.length_ref);
         n.v = v;
         n.w = w;
     }

@@ -99,3 +99,5 @@ def test_ed_energy_never_increases_and_loss_is_the_jump_energy(model):
     assert np.max(np.abs(res["e.balance"].values)) < 1e-10 * scale
     assert res["e.numerical_dissipation"].values[-1] > 0
     assert res.attrs["stats"]["max_energy_defect"] < 1e-11 * scale
+    # The sparsity pattern detected at set-up held for every assembly.
+    assert res.attrs["stats"]["pattern_misses"] == 0

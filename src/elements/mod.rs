@@ -102,6 +102,19 @@ pub fn eval_kernel<K: Kernel>(
     }
 }
 
+/// The nonzero entries of a kernel's tangent block (row-major) at the local unknowns `y`.
+/// Entries at round-off level (an analytically zero term computed as 1e-17, e.g. a moment
+/// about a lever arm's own axis) count as zero.
+pub fn block_structure<K: Kernel>(k: &K, ctx: &StepCtx, y: &[f64]) -> Vec<bool> {
+    let n = k.unknowns().len();
+    let pos: Vec<usize> = (0..n * n).collect();
+    let mut vals = vec![0.0; n * n];
+    let mut res = vec![0.0; y.len()];
+    eval_kernel(k, ctx, y, &mut res, Some((&mut vals, &pos)));
+    let scale = vals.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    vals.iter().map(|v| v.abs() > 1e-13 * scale).collect()
+}
+
 /// Reads a 3-vector from a local block.
 #[inline]
 pub fn v3<T: Real>(y: &[T], at: usize) -> V3<T> {

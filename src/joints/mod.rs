@@ -601,8 +601,14 @@ mod kernel_tests {
 
     fn attachments() -> [Attachment; 2] {
         [
-            Attachment { offset: V3([0.3, -0.2, 0.5]), triad: exp_map(&V3([0.1, 0.2, 0.3])) },
-            Attachment { offset: V3([-0.4, 0.1, 0.2]), triad: exp_map(&V3([0.0, -0.5, 0.3])) },
+            Attachment {
+                offset: V3([0.3, -0.2, 0.5]),
+                triad: exp_map(&V3([0.1, 0.2, 0.3])),
+            },
+            Attachment {
+                offset: V3([-0.4, 0.1, 0.2]),
+                triad: exp_map(&V3([0.0, -0.5, 0.3])),
+            },
         ]
     }
 
@@ -624,7 +630,13 @@ mod kernel_tests {
             v: V3([1.0, -2.0 * k, 0.5]),
             w: V3([0.3, 5.0, -1.0 * k]),
         };
-        let state = State { t: 0.1, nodes: vec![node(1.0), node(-0.7)], coords: vec![0.3], coord_rates: vec![-0.8], lambda: vec![] };
+        let state = State {
+            t: 0.1,
+            nodes: vec![node(1.0), node(-0.7)],
+            coords: vec![0.3],
+            coord_rates: vec![-0.8],
+            lambda: vec![],
+        };
         for scheme in [Scheme::Ep, Scheme::Ed] {
             for law in laws() {
                 for ground in [false, true] {
@@ -632,14 +644,37 @@ mod kernel_tests {
                     let nr = law.n_rows();
                     let layout = Layout::new(scheme, 2, nq, nr);
                     let sides = if ground {
-                        [Side::Ground { x: V3([0.5, 0.0, 0.1]), r: exp_map(&V3([0.2, 0.1, 0.0])) }, Side::Node(1)]
+                        [
+                            Side::Ground {
+                                x: V3([0.5, 0.0, 0.1]),
+                                r: exp_map(&V3([0.2, 0.1, 0.0])),
+                            },
+                            Side::Node(1),
+                        ]
                     } else {
                         [Side::Node(0), Side::Node(1)]
                     };
                     let kind = format!("{scheme:?} {law:?} ground={ground}");
-                    let k = JointKernel::new("j".into(), law.clone(), sides, (0..nq).collect(), 0, &layout);
-                    let ctx = StepCtx { layout, h: 0.01, t_i: 0.1, t_f: 0.11, s: 30.0, state: &state, gravity: V3([0.0; 3]) };
-                    let y: Vec<f64> = (0..layout.n_unknowns()).map(|i| 0.02 * ((i as f64) * 1.3).sin()).collect();
+                    let k = JointKernel::new(
+                        "j".into(),
+                        law.clone(),
+                        sides,
+                        (0..nq).collect(),
+                        0,
+                        &layout,
+                    );
+                    let ctx = StepCtx {
+                        layout,
+                        h: 0.01,
+                        t_i: 0.1,
+                        t_f: 0.11,
+                        s: 30.0,
+                        state: &state,
+                        gravity: V3([0.0; 3]),
+                    };
+                    let y: Vec<f64> = (0..layout.n_unknowns())
+                        .map(|i| 0.02 * ((i as f64) * 1.3).sin())
+                        .collect();
                     let e = tangent_error(&k, &ctx, &y);
                     // Same bound as the other kernels: FD truncation and round-off, relative to |J|.
                     assert!(e < 1e-7, "{kind}: tangent error {e:e}");

@@ -93,7 +93,12 @@ impl System {
             node_names.push(n.name.clone());
             let v = V3(n.velocity.unwrap_or_default());
             let w = r.tmul_v(&V3(n.angular_velocity.unwrap_or_default()));
-            nodes.push(NodeState { x: V3(n.position), r, v, w });
+            nodes.push(NodeState {
+                x: V3(n.position),
+                r,
+                v,
+                w,
+            });
             velocity_given.push(n.velocity.is_some() || n.angular_velocity.is_some());
         }
         let index: HashMap<String, usize> = node_names

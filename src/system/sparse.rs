@@ -1,10 +1,13 @@
 //! The Newton matrix: a fixed compressed-column pattern built from the kernels' blocks, and
-//! faer's sparse LU with the symbolic analysis (fill-reducing ordering, elimination structure)
-//! done once per pattern and the numeric factors and scratch memory reused every iteration.
+//! faer's simplicial sparse LU (partial pivoting) in a fill-reducing column order computed once
+//! per pattern; the factor storage and scratch memory are reused every iteration.
 
 use dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::dyn_stack;
-use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuRef, NumericLu, SymbolicLu};
+use faer::perm::PermRef;
+use faer::sparse::linalg::lu::simplicial::{
+    factorize_simplicial_numeric_lu, factorize_simplicial_numeric_lu_scratch, SimplicialLu,
+};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par};
 
@@ -13,21 +16,38 @@ pub struct NewtonMatrix {
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     pub values: Vec<f64>,
-    symbolic: SymbolicLu<usize>,
-    numeric: NumericLu<usize, f64>,
+    /// Fill-reducing column order (reverse Cuthill–McKee) and its inverse.
+    col_perm: Vec<usize>,
+    col_perm_inv: Vec<usize>,
+    row_perm: Vec<usize>,
+    row_perm_inv: Vec<usize>,
+    lu: SimplicialLu<usize, f64>,
     scratch: MemBuffer,
     pub numeric_factorizations: usize,
     pub symbolic_factorizations: usize,
 }
 
 impl NewtonMatrix {
-    /// Pattern from dense local blocks (each a list of global indices); returns the matrix and,
-    /// per block, the row-major value positions of its `n × n` entries.
-    pub fn from_blocks(n: usize, blocks: &[&[usize]]) -> (Self, Vec<Vec<usize>>) {
+    /// Pattern from local blocks (each a list of global indices, with an optional row-major
+    /// mask of its structurally nonzero entries); returns the matrix and, per block, the value
+    /// positions of its `n × n` entries. Masked-out entries point at a trailing slot that the
+    /// factorization never reads, so a kernel may always write its full block.
+    pub fn from_blocks(
+        n: usize,
+        blocks: &[&[usize]],
+        masks: Option<&[Vec<bool>]>,
+    ) -> (Self, Vec<Vec<usize>>) {
+        let keep =
+            |b: usize, i: usize, j: usize| masks.is_none_or(|m| m[b][i * blocks[b].len() + j]);
         let mut cols: Vec<Vec<usize>> = vec![Vec::new(); n];
-        for b in blocks {
-            for &j in b.iter() {
-                cols[j].extend_from_slice(b);
+        for (bi, b) in blocks.iter().enumerate() {
+            for (lj, &j) in b.iter().enumerate() {
+                cols[j].extend(
+                    b.iter()
+                        .enumerate()
+                        .filter(|(li, _)| keep(bi, *li, lj))
+                        .map(|(_, &i)| i),
+                );
             }
         }
         // Every diagonal entry exists so a pivot can always be chosen structurally.
@@ -43,36 +63,50 @@ impl NewtonMatrix {
             row_idx.extend_from_slice(c);
             col_ptr.push(row_idx.len());
         }
+        let dump = row_idx.len();
         let positions = blocks
             .iter()
-            .map(|b| {
+            .enumerate()
+            .map(|(bi, b)| {
                 let m = b.len();
-                let mut p = vec![0; m * m];
+                let mut p = vec![dump; m * m];
                 for (i, &gi) in b.iter().enumerate() {
                     for (j, &gj) in b.iter().enumerate() {
-                        let col = &row_idx[col_ptr[gj]..col_ptr[gj + 1]];
-                        p[i * m + j] =
-                            col_ptr[gj] + col.binary_search(&gi).expect("entry in pattern");
+                        if keep(bi, i, j) {
+                            let col = &row_idx[col_ptr[gj]..col_ptr[gj + 1]];
+                            p[i * m + j] =
+                                col_ptr[gj] + col.binary_search(&gi).expect("entry in pattern");
+                        }
                     }
                 }
                 p
             })
             .collect();
-        let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
-        let symbolic = factorize_symbolic_lu(sym, Default::default()).expect("symbolic LU");
-        let par = Par::Seq;
+        // Fill-reducing order: reverse Cuthill–McKee on the symmetrised pattern. Multibody
+        // systems are chains and trees of small blocks, so a narrow band is what keeps partial
+        // pivoting from filling the factors. Measured on a 64-link chain under ED (1664
+        // unknowns): 67k factor entries with RCM, 324k with AMD; faer's COLAMD-based LU took
+        // 1.8× as long.
+        let col_perm = reverse_cuthill_mckee(&cols);
+        let mut col_perm_inv = vec![0usize; n];
+        for (k, &p) in col_perm.iter().enumerate() {
+            col_perm_inv[p] = k;
+        }
         let req = StackReq::any_of(&[
-            symbolic.factorize_numeric_lu_scratch::<f64>(par, Default::default()),
-            symbolic.solve_in_place_scratch::<f64>(1, par),
+            factorize_simplicial_numeric_lu_scratch::<usize, f64>(n, n),
+            faer::perm::permute_rows_in_place_scratch::<usize, f64>(n, 1),
         ]);
         let nnz = row_idx.len();
         let m = NewtonMatrix {
             n,
             col_ptr,
             row_idx,
-            values: vec![0.0; nnz],
-            symbolic,
-            numeric: NumericLu::new(),
+            values: vec![0.0; nnz + 1],
+            col_perm,
+            col_perm_inv,
+            row_perm: vec![0; n],
+            row_perm_inv: vec![0; n],
+            lu: SimplicialLu::new(),
             scratch: MemBuffer::new(req),
             numeric_factorizations: 0,
             symbolic_factorizations: 1,
@@ -88,7 +122,8 @@ impl NewtonMatrix {
         self.values.iter_mut().for_each(|v| *v = 0.0);
     }
 
-    /// Numeric LU of the current values; the symbolic analysis is reused.
+    /// Numeric LU (partial pivoting) of the current values, in the fixed column order; the
+    /// factor storage and scratch memory are reused.
     pub fn factor(&mut self) -> Result<(), String> {
         let sym = SymbolicSparseColMatRef::new_checked(
             self.n,
@@ -97,25 +132,52 @@ impl NewtonMatrix {
             None,
             &self.row_idx,
         );
-        let a = SparseColMatRef::new(sym, &self.values);
-        self.symbolic
-            .factorize_numeric_lu(
-                &mut self.numeric,
-                a,
-                Par::Seq,
-                MemStack::new(&mut self.scratch),
-                Default::default(),
-            )
-            .map_err(|e| format!("sparse LU failed: {e:?}"))?;
+        let a = SparseColMatRef::new(sym, &self.values[..self.row_idx.len()]);
+        let col_perm = PermRef::new_checked(&self.col_perm, &self.col_perm_inv, self.n);
+        factorize_simplicial_numeric_lu(
+            &mut self.row_perm,
+            &mut self.row_perm_inv,
+            &mut self.lu,
+            a,
+            col_perm,
+            MemStack::new(&mut self.scratch),
+        )
+        .map_err(|e| format!("sparse LU failed: {e:?}"))?;
         self.numeric_factorizations += 1;
         Ok(())
     }
 
     /// Solves `A x = rhs` in place with the last factorization.
     pub fn solve(&mut self, rhs: &mut [f64]) {
-        let lu = LuRef::new_unchecked(&self.symbolic, &self.numeric);
+        let row_perm = PermRef::new_checked(&self.row_perm, &self.row_perm_inv, self.n);
+        let col_perm = PermRef::new_checked(&self.col_perm, &self.col_perm_inv, self.n);
         let mat = MatMut::from_column_major_slice_mut(rhs, self.n, 1);
-        lu.solve_in_place_with_conj(Conj::No, mat, Par::Seq, MemStack::new(&mut self.scratch));
+        self.lu.solve_in_place_with_conj(
+            row_perm,
+            col_perm,
+            Conj::No,
+            mat,
+            Par::Seq,
+            MemStack::new(&mut self.scratch),
+        );
+    }
+
+    /// Entries of the L and U factors (fill diagnostics).
+    pub fn factor_nnz(&self) -> usize {
+        self.lu.l_factor_unsorted().compute_nnz() + self.lu.u_factor_unsorted().compute_nnz()
+    }
+
+    /// Whatever kernels wrote outside the pattern since the last `clear`, relative to the
+    /// largest entry (round-off level when the detected block structures are right).
+    pub fn outside_pattern(&self) -> f64 {
+        let dump = self.values[self.row_idx.len()].abs();
+        if dump == 0.0 {
+            return 0.0;
+        }
+        dump / self
+            .values
+            .iter()
+            .fold(f64::MIN_POSITIVE, |m, v| m.max(v.abs()))
     }
 
     /// Dense copy (for tests and diagnostics only).
@@ -130,6 +192,50 @@ impl NewtonMatrix {
     }
 }
 
+/// Reverse Cuthill–McKee order of the symmetrised pattern (`cols[j]`: rows of column j):
+/// breadth-first from a minimum-degree vertex, neighbours by increasing degree, reversed.
+/// Gives a narrow band, which partial pivoting can widen by at most a factor of two.
+fn reverse_cuthill_mckee(cols: &[Vec<usize>]) -> Vec<usize> {
+    let n = cols.len();
+    let mut adj: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for (j, c) in cols.iter().enumerate() {
+        for &i in c {
+            if i != j {
+                adj[i].push(j);
+                adj[j].push(i);
+            }
+        }
+    }
+    for a in &mut adj {
+        a.sort_unstable();
+        a.dedup();
+    }
+    let deg: Vec<usize> = adj.iter().map(|a| a.len()).collect();
+    let mut seen = vec![false; n];
+    let mut order = Vec::with_capacity(n);
+    while order.len() < n {
+        let start = (0..n)
+            .filter(|&v| !seen[v])
+            .min_by_key(|&v| deg[v])
+            .unwrap();
+        seen[start] = true;
+        let mut head = order.len();
+        order.push(start);
+        while head < order.len() {
+            let v = order[head];
+            head += 1;
+            let mut next: Vec<usize> = adj[v].iter().copied().filter(|&w| !seen[w]).collect();
+            next.sort_by_key(|&w| deg[w]);
+            for w in next {
+                seen[w] = true;
+                order.push(w);
+            }
+        }
+    }
+    order.reverse();
+    order
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -138,7 +244,7 @@ mod tests {
     fn assembles_blocks_and_solves() {
         let b1 = [0usize, 1];
         let b2 = [1usize, 2];
-        let (mut m, pos) = NewtonMatrix::from_blocks(3, &[&b1, &b2]);
+        let (mut m, pos) = NewtonMatrix::from_blocks(3, &[&b1, &b2], None);
         // [[4,1,0],[1,5,2],[0,2,6]] from two overlapping blocks.
         let k1 = [4.0, 1.0, 1.0, 2.0];
         let k2 = [3.0, 2.0, 2.0, 6.0];
