@@ -1,6 +1,6 @@
 """Times whole simulations and prints steps, Newton iterations, factorizations and wall time.
 
-    python benches/simulate.py            # the examples and a chain of pendulums, EP and ED
+python benches/simulate.py            # the examples and a chain of pendulums, EP and ED
 """
 
 import time
@@ -17,7 +17,13 @@ def chain(n, length=0.5):
     for i in range(n):
         m.node(f"n{i}", [length * (i + 0.5), 0, 0])
         m.rigid_body(f"link{i}", f"n{i}", mass=1.0, inertia=[1e-3, length**2 / 12, length**2 / 12])
-        m.revolute(f"pin{i}", "ground" if i == 0 else f"n{i - 1}", f"n{i}", axis=[0, 1, 0], position=[length * i, 0, 0])
+        m.revolute(
+            f"pin{i}",
+            "ground" if i == 0 else f"n{i - 1}",
+            f"n{i}",
+            axis=[0, 1, 0],
+            position=[length * i, 0, 0],
+        )
     m.sensor("energy", "energy")
     return m
 
@@ -35,7 +41,9 @@ def run(label, model, **kw):
 
 
 def main():
-    print(f"{'case':<28} {'sch':>3} {'unkn':>6} {'steps':>7} {'it/st':>6} {'factor':>7} {'wall s':>8} {'us/step':>9}")
+    print(
+        f"{'case':<28} {'sch':>3} {'unkn':>6} {'steps':>7} {'it/st':>6} {'factor':>7} {'wall s':>8} {'us/step':>9}"
+    )
     for path in sorted((ROOT / "examples").glob("*.yaml")):
         for scheme in ("ep", "ed"):
             run(path.stem, fd.load(path), scheme=scheme)

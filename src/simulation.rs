@@ -173,7 +173,7 @@ impl Simulation {
                 self.last_report = Some(report);
                 Ok(())
             }
-            Err(e) if depth < self.settings.max_step_halvings => {
+            Err(e) if e.retry && depth < self.settings.max_step_halvings => {
                 self.stats.halvings += 1;
                 let _ = e;
                 self.advance_interval(0.5 * h, depth + 1)?;

@@ -1,10 +1,9 @@
 """Validation against closed-form solutions: small-amplitude pendulum period and a driven
 four-bar linkage (kinematics and driving torque from inverse dynamics)."""
 
+import flexdyn as fd
 import numpy as np
 import pytest
-
-import flexdyn as fd
 
 G = 9.81
 
@@ -21,7 +20,9 @@ def test_small_amplitude_pendulum_period(scheme):
     model = fd.Model("pendulum", gravity=[0, 0, -G])
     # Start at the bottom with the rate that gives amplitude theta0 (velocities are made
     # consistent with the joint by the initial projection).
-    model.node("bob", [0, 0, -L], angular_velocity=[0, theta0 * omega, 0], velocity=[-theta0 * omega * L, 0, 0])
+    model.node(
+        "bob", [0, 0, -L], angular_velocity=[0, theta0 * omega, 0], velocity=[-theta0 * omega * L, 0, 0]
+    )
     model.rigid_body("ball", "bob", mass=m, inertia=[i_cm] * 3)
     model.revolute("pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0])
     model.sensor("joint_coordinate", "angle", joint="pin")
@@ -77,10 +78,10 @@ def kinetic_energy(t, theta20):
     cp, ap = at(t + e)
     cm, am = at(t - e)
     T = 0.0
-    for k in MASS:
+    for k, mass in MASS.items():
         v = (cp[k] - cm[k]) / (2 * e)
         w = (ap[k] - am[k]) / (2 * e)
-        T += 0.5 * MASS[k] * v @ v + 0.5 * MASS[k] * LEN[k] ** 2 / 12 * w**2
+        T += 0.5 * mass * v @ v + 0.5 * mass * LEN[k] ** 2 / 12 * w**2
     return T
 
 
@@ -97,15 +98,17 @@ def fourbar_model(theta20):
     o4 = np.array([D, 0.0, 0.0])
     dirs = {"crank": pa, "coupler": pb - pa, "rocker": pb - o4}
     m = fd.Model("four-bar")
-    for k in MASS:
+    for k, mass in MASS.items():
         m.node(k, cms[k])
-        m.rigid_body(f"{k}_body", k, mass=MASS[k], inertia=bar_inertia(MASS[k], LEN[k], dirs[k]))
+        m.rigid_body(f"{k}_body", k, mass=mass, inertia=bar_inertia(mass, LEN[k], dirs[k]))
     # Revolute–spherical–universal–revolute: a spatial four-bar with one degree of freedom
     # and no redundant constraint.
     m.revolute("crank_pin", "ground", "crank", axis=[0, 0, 1], position=[0, 0, 0], drive=f"{RATE}*t")
     m.spherical("crank_coupler", "crank", "coupler", position=pa)
     u_c = (pb - pa) / np.linalg.norm(pb - pa)
-    m.universal("coupler_rocker", "coupler", "rocker", axis1=np.cross([0, 0, 1], u_c), axis2=[0, 0, 1], position=pb)
+    m.universal(
+        "coupler_rocker", "coupler", "rocker", axis1=np.cross([0, 0, 1], u_c), axis2=[0, 0, 1], position=pb
+    )
     m.revolute("rocker_pin", "ground", "rocker", axis=[0, 0, 1], position=o4)
     m.sensor("joint_coordinate", "rocker_angle", joint="rocker_pin")
     m.sensor("drive_force", "crank_drive", joint="crank_pin")
@@ -131,7 +134,12 @@ def test_driven_fourbar_kinematics_and_torque(scheme):
     e = 1e-4
 
     def exact_torque(times):
-        return np.array([(kinetic_energy(x + e, theta20) - kinetic_energy(x - e, theta20)) / (2 * e) / RATE for x in times])
+        return np.array(
+            [
+                (kinetic_energy(x + e, theta20) - kinetic_energy(x - e, theta20)) / (2 * e) / RATE
+                for x in times
+            ]
+        )
 
     ex = exact_torque(t_mid)
     scale = np.max(np.abs(ex))

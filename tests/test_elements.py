@@ -1,10 +1,9 @@
 """Rigid bodies with offset centres of mass, clamps, point loads, dampers and joint reactions,
 each against an exact or independent result."""
 
+import flexdyn as fd
 import numpy as np
 import pytest
-
-import flexdyn as fd
 from conftest import track
 
 
@@ -81,7 +80,14 @@ def test_damper_dissipates_and_the_energy_balance_closes(scheme):
     m = fd.Model("damped", gravity=[0, 0, -9.81])
     m.node("bob", [1, 0, 0])
     m.rigid_body("ball", "bob", mass=2.0, inertia=[0.01] * 3)
-    m.revolute("pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0], spring={"stiffness": 5.0, "damping": 0.5, "rest": 0.2})
+    m.revolute(
+        "pin",
+        "ground",
+        "bob",
+        axis=[0, 1, 0],
+        position=[0, 0, 0],
+        spring={"stiffness": 5.0, "damping": 0.5, "rest": 0.2},
+    )
     m.sensor("energy", "e")
     res = fd.simulate(m, scheme=scheme, dt=5e-3, t_end=5.0)
     w = res["e.damper_work"].values

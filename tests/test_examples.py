@@ -2,10 +2,9 @@
 
 from pathlib import Path
 
+import flexdyn as fd
 import numpy as np
 import pytest
-
-import flexdyn as fd
 
 EXAMPLES = sorted((Path(__file__).parent.parent / "examples").glob("*.yaml"))
 
@@ -14,7 +13,9 @@ EXAMPLES = sorted((Path(__file__).parent.parent / "examples").glob("*.yaml"))
 def test_example_runs(path, tmp_path):
     model = fd.load(path)
     dt = model.data["simulation"].get("dt", 1e-3)
-    res = fd.simulate(model, t_end=min(model.data["simulation"].get("t_end", 1.0), 200 * dt), out=tmp_path / "r.nc")
+    res = fd.simulate(
+        model, t_end=min(model.data["simulation"].get("t_end", 1.0), 200 * dt), out=tmp_path / "r.nc"
+    )
     assert res.attrs["completed"] == 1
     for name in res.data_vars:
         assert np.all(np.isfinite(res[name].values[1:])), name

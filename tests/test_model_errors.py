@@ -4,9 +4,8 @@ import json
 import subprocess
 import sys
 
-import pytest
-
 import flexdyn as fd
+import pytest
 
 BASE = """
 gravity: [0, 0, -9.81]
@@ -32,8 +31,16 @@ CASES = [
     # (replace this, with that, expected fragments of the message)
     ("type: spherical", "type: hinge", ["joints[1]", "unknown variant `hinge`"]),
     ("node2: b}", "node2: c}", ["joints[1].node2", "node `c`"]),
-    ("mass: 1.0, inertia: [1, 1, 1]}\n  - {name: body_b", "mass: -2.0, inertia: [1, 1, 1]}\n  - {name: body_b", ["bodies[0].mass", "body_a", "positive"]),
-    ("inertia: [1, 1, 1]}\n  - {name: body_b", "inertia: [1, -1, 1]}\n  - {name: body_b", ["bodies[0].inertia", "body_a", "positive definite"]),
+    (
+        "mass: 1.0, inertia: [1, 1, 1]}\n  - {name: body_b",
+        "mass: -2.0, inertia: [1, 1, 1]}\n  - {name: body_b",
+        ["bodies[0].mass", "body_a", "positive"],
+    ),
+    (
+        "inertia: [1, 1, 1]}\n  - {name: body_b",
+        "inertia: [1, -1, 1]}\n  - {name: body_b",
+        ["bodies[0].inertia", "body_a", "positive definite"],
+    ),
     ("name: ball", "name: pin", ["joints[1].name", "duplicate name `pin`"]),
     ("node: b, mass", "node: nowhere, mass", ["bodies[1].node", "node `nowhere`"]),
     ("axis: [0, 0, 1]}", "axis: [0, 0, 1], drive: 'sin(t'}", ["joints[0].drive", "cannot parse"]),
@@ -71,7 +78,9 @@ def test_all_problems_are_reported_at_once(tmp_path):
 def test_builder_errors_match_yaml_errors():
     m = fd.Model()
     m.node("a", [0, 0, 0]).rigid_body("body", "a", mass=1.0, inertia=[[1, 2, 0], [2, 1, 0], [0, 0, 1]])
-    with pytest.raises(fd.ModelError, match=r"bodies\[0\]\.inertia: body `body`: inertia must be positive definite"):
+    with pytest.raises(
+        fd.ModelError, match=r"bodies\[0\]\.inertia: body `body`: inertia must be positive definite"
+    ):
         m.validate()
 
 
@@ -88,13 +97,35 @@ def test_schema_is_generated_from_the_types():
     joint_kinds = json.dumps(schema["$defs"]["Joint"])
     for kind in ["spherical", "revolute", "universal", "clamp"]:
         assert kind in joint_kinds
-    out = subprocess.run([sys.executable, "-m", "flexdyn.cli", "schema"], capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-m", "flexdyn.cli", "schema"], capture_output=True, text=True, check=True
+    )
     assert json.loads(out.stdout) == schema
 
 
 def test_cli_validate_reports_errors(tmp_path):
     p = tmp_path / "bad.yaml"
     p.write_text(BASE.replace("axis: [0, 0, 1]", "axis: [0, 0, 3]"))
-    out = subprocess.run([sys.executable, "-m", "flexdyn.cli", "validate", str(p)], capture_output=True, text=True)
+    out = subprocess.run(
+        [sys.executable, "-m", "flexdyn.cli", "validate", str(p)], capture_output=True, text=True, check=False
+    )
     assert out.returncode == 2
     assert "joints[0].axis: must be a unit vector" in out.stderr
+
+
+def test_unconnected_massless_node_is_a_model_error():
+    m = fd.Model("loose")
+    m.node("a", [0, 0, 0]).node("b", [1, 0, 0]).rigid_body("body", "a", 1.0, [1, 1, 1])
+    with pytest.raises(fd.ModelError, match=r"nodes\[1\]: node `b` carries no body and no joint connects it"):
+        fd.simulate(m, t_end=0.01, dt=1e-3)
+
+
+def test_undetermined_motion_stops_at_once_naming_the_node():
+    # A massless node on a spherical joint: its rotation is free and weightless.
+    m = fd.Model("floppy", gravity=[0, 0, -9.81])
+    m.node("a", [0, 0, 0]).node("b", [1, 0, 0]).rigid_body("body", "a", 1.0, [1, 1, 1])
+    m.spherical("s", "a", "b")
+    with pytest.raises(fd.SolverError, match=r"singular Newton matrix at node `b`") as e:
+        fd.simulate(m, t_end=0.01, dt=1e-3)
+    # Not a step-size problem: no halving was attempted.
+    assert e.value.results.attrs["stats_halvings"] == 0

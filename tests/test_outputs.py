@@ -4,12 +4,11 @@ import json
 import subprocess
 import sys
 
+import flexdyn as fd
+import flexdyn.results
 import numpy as np
 import pytest
 import xarray as xr
-
-import flexdyn as fd
-import flexdyn.results
 from test_conservation import double_pendulum
 
 
@@ -28,7 +27,9 @@ def spun_up_body(max_halvings=2):
 def test_results_stream_to_netcdf_in_chunks(tmp_nc, monkeypatch):
     monkeypatch.setattr(flexdyn.results, "CHUNK_STEPS", 100)
     sizes = []
-    res = fd.simulate(double_pendulum("ed", 0.01, 5.0), out=tmp_nc, on_chunk=lambda t, v: sizes.append(len(t)))
+    res = fd.simulate(
+        double_pendulum("ed", 0.01, 5.0), out=tmp_nc, on_chunk=lambda t, v: sizes.append(len(t))
+    )
     # 500 steps in chunks of 100: Rust hands over at most 100 samples (+ t = 0) at a time.
     assert len(sizes) == 5 and max(sizes) <= 101
     assert res.sizes["time"] == 501
@@ -82,7 +83,12 @@ def test_cli_run_writes_results(tmp_path):
     model = tmp_path / "pendulum.yaml"
     double_pendulum("ed", 0.01, 0.5).to_yaml(model)
     out = tmp_path / "r.nc"
-    p = subprocess.run([sys.executable, "-m", "flexdyn.cli", "run", str(model), "-o", str(out)], capture_output=True, text=True)
+    p = subprocess.run(
+        [sys.executable, "-m", "flexdyn.cli", "run", str(model), "-o", str(out)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     assert p.returncode == 0, p.stderr
     assert "51 samples" in p.stdout and "ED:" in p.stdout
     assert xr.open_dataset(out).sizes["time"] == 51
@@ -92,7 +98,12 @@ def test_cli_run_failure_exits_nonzero_and_keeps_partial_file(tmp_path):
     model = tmp_path / "spin.yaml"
     spun_up_body().to_yaml(model)
     out = tmp_path / "r.nc"
-    p = subprocess.run([sys.executable, "-m", "flexdyn.cli", "run", str(model), "-o", str(out)], capture_output=True, text=True)
+    p = subprocess.run(
+        [sys.executable, "-m", "flexdyn.cli", "run", str(model), "-o", str(out)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     assert p.returncode == 3
     assert "node `disk`" in p.stderr and "partial results" in p.stderr
     assert xr.open_dataset(out).sizes["time"] > 700

@@ -46,7 +46,9 @@ class Model:
         }
 
     # --- items -------------------------------------------------------------------------
-    def node(self, name, position, *, velocity=None, angular_velocity=None, rotation_vector=None, matrix=None):
+    def node(
+        self, name, position, *, velocity=None, angular_velocity=None, rotation_vector=None, matrix=None
+    ):
         """A node (point with a triad). Velocities and orientation in the inertial frame."""
         orientation = _drop_none(
             {
@@ -85,11 +87,15 @@ class Model:
         return self
 
     def _joint(self, kind, name, node1, node2, **fields):
-        self.data["joints"].append(_drop_none({"type": kind, "name": name, "node1": node1, "node2": node2, **fields}))
+        self.data["joints"].append(
+            _drop_none({"type": kind, "name": name, "node1": node1, "node2": node2, **fields})
+        )
         return self
 
     def spherical(self, name, node1, node2, position=None):
-        return self._joint("spherical", name, node1, node2, position=_vec(position) if position is not None else None)
+        return self._joint(
+            "spherical", name, node1, node2, position=_vec(position) if position is not None else None
+        )
 
     def revolute(self, name, node1, node2, axis, position=None, drive=None, spring=None):
         """Revolute joint about `axis`; `drive` prescribes φ(t) (number, expression of t, or
@@ -121,11 +127,15 @@ class Model:
 
     def force(self, name, node, value, scale=None):
         """Dead point force (N, inertial frame) times an optional function of time."""
-        self.data["loads"].append(_drop_none({"type": "force", "name": name, "node": node, "value": _vec(value), "scale": scale}))
+        self.data["loads"].append(
+            _drop_none({"type": "force", "name": name, "node": node, "value": _vec(value), "scale": scale})
+        )
         return self
 
     def moment(self, name, node, value, scale=None):
-        self.data["loads"].append(_drop_none({"type": "moment", "name": name, "node": node, "value": _vec(value), "scale": scale}))
+        self.data["loads"].append(
+            _drop_none({"type": "moment", "name": name, "node": node, "value": _vec(value), "scale": scale})
+        )
         return self
 
     def sensor(self, kind, name, **fields):
@@ -146,7 +156,7 @@ class Model:
     def to_json(self) -> str:
         return json.dumps(self.data)
 
-    def validate(self) -> "Model":
+    def validate(self) -> Model:
         """Raises ModelError naming every offending item."""
         _core.parse_json(self.to_json())
         return self
@@ -158,7 +168,7 @@ class Model:
         return text
 
     @classmethod
-    def from_dict(cls, data: dict) -> "Model":
+    def from_dict(cls, data: dict) -> Model:
         m = cls()
         m.data = copy.deepcopy(data)
         for key in ("nodes", "bodies", "joints", "loads", "sensors"):

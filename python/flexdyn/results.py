@@ -65,7 +65,9 @@ def _dataset(times, values, names, units, attrs) -> xr.Dataset:
 def _progress(t, t_end, start):
     frac = t / t_end if t_end > 0 else 1.0
     bar = "#" * int(30 * frac)
-    sys.stderr.write(f"\r[{bar:<30}] {100 * frac:5.1f}%  t = {t:.4g} s  wall {time.perf_counter() - start:.1f} s")
+    sys.stderr.write(
+        f"\r[{bar:<30}] {100 * frac:5.1f}%  t = {t:.4g} s  wall {time.perf_counter() - start:.1f} s"
+    )
     sys.stderr.flush()
 
 
@@ -100,7 +102,12 @@ def simulate(
     data["simulation"].update({k: v for k, v in overrides.items() if v is not None})
     sim = _core.Simulation(json.dumps(data))
     names, units = sim.channel_names, sim.channel_units
-    attrs = {"model": data.get("name") or "", "scheme": sim.scheme, "dt": sim.dt, "flexdyn_model": json.dumps(data)}
+    attrs = {
+        "model": data.get("name") or "",
+        "scheme": sim.scheme,
+        "dt": sim.dt,
+        "flexdyn_model": json.dumps(data),
+    }
     writer = _NetcdfWriter(Path(out), names, units, attrs) if out is not None else None
     chunks_t, chunks_v = [], []
     start = time.perf_counter()

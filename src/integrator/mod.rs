@@ -38,6 +38,8 @@ pub struct StepFailure {
     pub t: f64,
     pub h: f64,
     pub reason: String,
+    /// Whether a smaller step could help (not for a singular Newton matrix).
+    pub retry: bool,
 }
 
 impl std::fmt::Display for StepFailure {
@@ -277,6 +279,7 @@ impl Integrator {
             t: state.t,
             h,
             reason,
+            retry: true,
         };
 
         self.predict(sys, state, h);
@@ -313,10 +316,15 @@ impl Integrator {
             }
             self.solve_update().map_err(fail)?;
             if let Some(bad) = self.y.iter().position(|v| !v.is_finite()) {
-                return Err(fail(format!(
-                    "singular Newton matrix (no finite update) at {}",
-                    sys.describe_row(bad)
-                )));
+                // Singular whatever the step: an unconstrained massless motion, or a mechanism
+                // at a lock-up. Say so rather than halving the step in vain.
+                return Err(StepFailure {
+                    retry: false,
+                    ..fail(format!(
+                        "singular Newton matrix at {}: a motion there is determined neither by mass nor by joints (give the node a body or constrain it), or the mechanism is at a singular configuration",
+                        sys.describe_row(bad)
+                    ))
+                });
             }
             for a in 0..layout.n_nodes {
                 let d = layout.node_delta(a) + 3;

@@ -323,15 +323,25 @@ impl JointKernel {
         l
     }
 
+    /// The joint's local unknowns from the global vector (on the stack).
+    fn gather(&self, y: &[f64]) -> [f64; crate::elements::MAX_LOCAL] {
+        let mut buf = [0.0; crate::elements::MAX_LOCAL];
+        for (b, &g) in buf.iter_mut().zip(self.unknowns.iter()) {
+            *b = y[g];
+        }
+        buf
+    }
+
     /// Reaction on node2's side at the attachment point after a converged step: force and
     /// moment about the joint point (inertial frame), from the discrete constraint forces.
     pub fn reaction(&self, ctx: &StepCtx, y: &[f64], attach2: &V3<f64>) -> (V3<f64>, V3<f64>) {
-        let yl: Vec<f64> = self.unknowns.iter().map(|&g| y[g]).collect();
+        let buf = self.gather(y);
+        let yl = &buf[..self.unknowns.len()];
         let si = self.state_i::<f64>(ctx);
-        let (sf, _) = self.state_f(ctx, &si, &yl);
+        let (sf, _) = self.state_f(ctx, &si, yl);
         let mut b = zero_rows::<f64>();
         self.law.discrete_gradient(&si, &sf, &mut b);
-        let lam = self.multipliers(ctx, &yl, false);
+        let lam = self.multipliers(ctx, yl, false);
         let mut g = [0.0; NCOL];
         for (c, gc) in g.iter_mut().enumerate() {
             for r in 0..self.n_rows() {
@@ -346,12 +356,13 @@ impl JointKernel {
 
     /// Work of the constraint forces over a converged step, `Δ·(B^Dᵀ λ)` = `λ·(C_f − C_i)`.
     pub fn step_work(&self, ctx: &StepCtx, y: &[f64]) -> f64 {
-        let yl: Vec<f64> = self.unknowns.iter().map(|&g| y[g]).collect();
+        let buf = self.gather(y);
+        let yl = &buf[..self.unknowns.len()];
         let si = self.state_i::<f64>(ctx);
-        let (sf, rs) = self.state_f(ctx, &si, &yl);
+        let (sf, rs) = self.state_f(ctx, &si, yl);
         let mut b = zero_rows::<f64>();
         self.law.discrete_gradient(&si, &sf, &mut b);
-        let lam = self.multipliers(ctx, &yl, false);
+        let lam = self.multipliers(ctx, yl, false);
         let mut work = 0.0;
         for r in 0..self.n_rows() {
             let mut bd = 0.0;
@@ -373,9 +384,10 @@ impl JointKernel {
 
     /// Constraint values at the end of a converged step.
     pub fn violation(&self, ctx: &StepCtx, y: &[f64]) -> [f64; MAX_ROWS] {
-        let yl: Vec<f64> = self.unknowns.iter().map(|&g| y[g]).collect();
+        let buf = self.gather(y);
+        let yl = &buf[..self.unknowns.len()];
         let si = self.state_i::<f64>(ctx);
-        let (sf, _) = self.state_f(ctx, &si, &yl);
+        let (sf, _) = self.state_f(ctx, &si, yl);
         let mut c = [0.0; MAX_ROWS];
         self.law.value(&sf, &mut c);
         c

@@ -151,6 +151,20 @@ impl System {
         }
         let layout = Layout::new(scheme, nodes.len(), n_coords, n_rows);
 
+        // A node with no mass that nothing refers to has an undetermined motion.
+        for (i, n) in model.nodes.iter().enumerate() {
+            let a = index[&n.name];
+            let used = model.joints.iter().any(|j| {
+                let (n1, n2) = j.nodes();
+                n1 == n.name || n2 == n.name
+            });
+            if mass[a] == 0.0 && !used && !cm_links.iter().any(|l| l.1 == a) {
+                return Err(err(
+                    format!("nodes[{i}]"),
+                    format!("node `{}` carries no body and no joint connects it, so its motion is undetermined; give it a body or remove it", n.name),
+                ));
+            }
+        }
         let inertias = (0..nodes.len())
             .filter(|&a| mass[a] > 0.0 || inertia[a].max_abs() > 0.0)
             .map(|a| NodeInertia::new(a, mass[a], inertia[a], &layout))

@@ -1,0 +1,7 @@
+"""`python -m flexdyn ...` is the `flexdyn` command."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())
