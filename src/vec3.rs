@@ -158,6 +158,17 @@ impl<T: Real> M3<T> {
             m[2][0] * x[0] + m[2][1] * x[1] + m[2][2] * x[2],
         ])
     }
+    /// `self v` for a constant vector (cheaper than lifting `v` to `T`).
+    #[inline]
+    pub fn mul_vf(&self, v: &V3<f64>) -> V3<T> {
+        let m = &self.0;
+        let x = &v.0;
+        V3([
+            m[0][0] * x[0] + m[0][1] * x[1] + m[0][2] * x[2],
+            m[1][0] * x[0] + m[1][1] * x[1] + m[1][2] * x[2],
+            m[2][0] * x[0] + m[2][1] * x[1] + m[2][2] * x[2],
+        ])
+    }
     /// `selfᵀ v` without forming the transpose.
     #[inline]
     pub fn tmul_v(&self, v: &V3<T>) -> V3<T> {

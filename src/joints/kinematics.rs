@@ -3,16 +3,16 @@
 
 use super::{Attachment, JointState, Rows};
 use crate::scalar::Real;
-use crate::vec3::{M3, V3};
+use crate::vec3::V3;
 
 /// Spatial attachment point `x + R p` of side `k`.
 pub fn point<T: Real>(s: &JointState<T>, k: usize, a: &Attachment) -> V3<T> {
-    s.x[k] + s.r[k].mul_v(&V3::from_f64(a.offset))
+    s.x[k] + s.r[k].mul_vf(&a.offset)
 }
 
 /// Unit vector `α` (0-based column) of side `k`'s attachment triad.
 pub fn unit<T: Real>(s: &JointState<T>, k: usize, a: &Attachment, alpha: usize) -> V3<T> {
-    s.r[k].mul_v(&M3::from_f64(&a.triad).col(alpha))
+    s.r[k].mul_vf(&a.triad.col(alpha))
 }
 
 fn put<T: Real>(row: &mut [T], at: usize, v: V3<T>) {
@@ -37,7 +37,7 @@ pub fn points_gradient<T: Real>(
     for k in 0..2 {
         let sign = if k == 0 { -1.0 } else { 1.0 };
         let rm = (si.r[k] + sf.r[k]).scale_f(0.5);
-        let arm = rm.mul_v(&V3::from_f64(at[k].offset)).tilde();
+        let arm = rm.mul_vf(&at[k].offset).tilde();
         for c in 0..3 {
             out[row + c][6 * k + c] = T::cst(sign);
             for d in 0..3 {
@@ -56,7 +56,7 @@ pub fn points_rate<T: Real>(
 ) {
     for k in 0..2 {
         let sign = if k == 0 { -1.0 } else { 1.0 };
-        let arm = s.r[k].mul_v(&V3::from_f64(at[k].offset)).tilde();
+        let arm = s.r[k].mul_vf(&at[k].offset).tilde();
         for c in 0..3 {
             out[row + c][6 * k + c] = T::cst(sign);
             for d in 0..3 {

@@ -46,16 +46,6 @@ pub struct Attachment {
     pub triad: M3<f64>,
 }
 
-impl Attachment {
-    /// Spatial offset `R p` and triad `R Q` for a node rotation `R`.
-    pub fn place<T: Real>(&self, r: &M3<T>) -> (V3<T>, M3<T>) {
-        (
-            r.mul_v(&V3::from_f64(self.offset)),
-            r.mul_m(&M3::from_f64(&self.triad)),
-        )
-    }
-}
-
 pub trait ConstraintLaw {
     fn n_rows(&self) -> usize;
     fn n_coords(&self) -> usize {
