@@ -17,33 +17,6 @@ fn rotations(c: &mut Criterion) {
     c.bench_function("rotation/log_map", |b| b.iter(|| log_map(black_box(&m))));
 }
 
-/// A chain of `n` links on revolute joints (the same model as benches/simulate.py).
-fn chain_yaml(n: usize) -> String {
-    let mut s = String::from("gravity: [0, 0, -9.81]\nnodes:\n");
-    for i in 0..n {
-        s += &format!(
-            "  - {{name: n{i}, position: [{}, 0, 0]}}\n",
-            0.5 * (i as f64 + 0.5)
-        );
-    }
-    s += "bodies:\n";
-    for i in 0..n {
-        s += &format!(
-            "  - {{name: link{i}, node: n{i}, mass: 1.0, inertia: [0.001, 0.0208, 0.0208]}}\n"
-        );
-    }
-    s += "joints:\n";
-    for i in 0..n {
-        let prev = if i == 0 {
-            "ground".to_string()
-        } else {
-            format!("n{}", i - 1)
-        };
-        s += &format!("  - {{type: revolute, name: pin{i}, node1: {prev}, node2: n{i}, axis: [0, 1, 0], position: [{}, 0, 0]}}\n", 0.5 * i as f64);
-    }
-    s + "simulation: {dt: 0.001}\n"
-}
-
 fn newton_iteration(c: &mut Criterion) {
     let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -52,7 +25,10 @@ fn newton_iteration(c: &mut Criterion) {
     .unwrap();
     for (label, model) in [
         ("four_bar", from_yaml_str(&text).unwrap()),
-        ("chain64", from_yaml_str(&chain_yaml(64)).unwrap()),
+        (
+            "chain64",
+            from_yaml_str(&flexdyn::testing::chain_yaml(64)).unwrap(),
+        ),
     ] {
         for scheme in [Scheme::Ep, Scheme::Ed] {
             let mut sim = Simulation::with_scheme(&model, scheme).unwrap();

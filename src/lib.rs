@@ -10,6 +10,8 @@ pub mod sensors;
 pub mod simulation;
 pub mod state;
 pub mod system;
+#[doc(hidden)]
+pub mod testing;
 pub mod time_function;
 pub mod vec3;
 

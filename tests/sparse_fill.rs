@@ -2,36 +2,11 @@
 use flexdyn::integrator::Integrator;
 use flexdyn::model::{from_yaml_str, Scheme};
 use flexdyn::simulation::Simulation;
-fn chain_yaml(n: usize) -> String {
-    let mut s = String::from("gravity: [0, 0, -9.81]\nnodes:\n");
-    for i in 0..n {
-        s += &format!(
-            "  - {{name: n{i}, position: [{}, 0, 0]}}\n",
-            0.5 * (i as f64 + 0.5)
-        );
-    }
-    s += "bodies:\n";
-    for i in 0..n {
-        s += &format!(
-            "  - {{name: link{i}, node: n{i}, mass: 1.0, inertia: [0.001, 0.0208, 0.0208]}}\n"
-        );
-    }
-    s += "joints:\n";
-    for i in 0..n {
-        let prev = if i == 0 {
-            "ground".to_string()
-        } else {
-            format!("n{}", i - 1)
-        };
-        s += &format!("  - {{type: revolute, name: pin{i}, node1: {prev}, node2: n{i}, axis: [0, 1, 0], position: [{}, 0, 0]}}\n", 0.5 * i as f64);
-    }
-    s + "simulation: {dt: 0.001}\n"
-}
 /// The fill of the Newton matrix's LU factors stays bounded on a long chain (a regression
 /// guard for the ordering: AMD gave 14× the matrix's entries under ED, RCM gives 3×).
 #[test]
 fn lu_fill_stays_bounded_on_a_chain() {
-    let model = from_yaml_str(&chain_yaml(64)).unwrap();
+    let model = from_yaml_str(&flexdyn::testing::chain_yaml(64)).unwrap();
     for scheme in [Scheme::Ep, Scheme::Ed] {
         let mut sim = Simulation::with_scheme(&model, scheme).unwrap();
         sim.advance_to(0.01).unwrap();

@@ -3,7 +3,7 @@
 
 use super::{Attachment, JointState, Rows};
 use crate::scalar::Real;
-use crate::vec3::V3;
+use crate::vec3::{M3, V3};
 
 /// Spatial attachment point `x + R p` of side `k`.
 pub fn point<T: Real>(s: &JointState<T>, k: usize, a: &Attachment) -> V3<T> {
@@ -25,19 +25,11 @@ pub fn points_value<T: Real>(s: &JointState<T>, at: &[Attachment; 2], out: &mut 
     out[..3].copy_from_slice(&d.0);
 }
 
-/// Exact discrete gradient of coincident points: `(R_f − R_i) p = −(R_m p)~ ρ` with
-/// `R_m = (R_i + R_f)/2` (identity A5/A6), so the rows are `[−I, (R_m p₁)~, I, −(R_m p₂)~]`.
-pub fn points_gradient<T: Real>(
-    si: &JointState<T>,
-    sf: &JointState<T>,
-    at: &[Attachment; 2],
-    out: &mut Rows<T>,
-    row: usize,
-) {
+/// Rows `[−I, (R₁p₁)~, I, −(R₂p₂)~]` of coincident points for the given side rotations.
+fn points_rows<T: Real>(rot: [M3<T>; 2], at: &[Attachment; 2], out: &mut Rows<T>, row: usize) {
     for k in 0..2 {
         let sign = if k == 0 { -1.0 } else { 1.0 };
-        let rm = (si.r[k] + sf.r[k]).scale_f(0.5);
-        let arm = rm.mul_vf(&at[k].offset).tilde();
+        let arm = rot[k].mul_vf(&at[k].offset).tilde();
         for c in 0..3 {
             out[row + c][6 * k + c] = T::cst(sign);
             for d in 0..3 {
@@ -47,6 +39,19 @@ pub fn points_gradient<T: Real>(
     }
 }
 
+/// Exact discrete gradient of coincident points: `(R_f − R_i) p = −(R_m p)~ ρ` with
+/// `R_m = (R_i + R_f)/2` (identity A5/A6).
+pub fn points_gradient<T: Real>(
+    si: &JointState<T>,
+    sf: &JointState<T>,
+    at: &[Attachment; 2],
+    out: &mut Rows<T>,
+    row: usize,
+) {
+    let mid = |k: usize| (si.r[k] + sf.r[k]).scale_f(0.5);
+    points_rows([mid(0), mid(1)], at, out, row);
+}
+
 /// Rate of coincident points: `Ċ = v₂ + ω₂ × R₂p₂ − v₁ − ω₁ × R₁p₁`.
 pub fn points_rate<T: Real>(
     s: &JointState<T>,
@@ -54,16 +59,7 @@ pub fn points_rate<T: Real>(
     out: &mut Rows<T>,
     row: usize,
 ) {
-    for k in 0..2 {
-        let sign = if k == 0 { -1.0 } else { 1.0 };
-        let arm = s.r[k].mul_vf(&at[k].offset).tilde();
-        for c in 0..3 {
-            out[row + c][6 * k + c] = T::cst(sign);
-            for d in 0..3 {
-                out[row + c][6 * k + 3 + d] = arm.0[c][d] * (-sign);
-            }
-        }
-    }
+    points_rows(s.r, at, out, row);
 }
 
 /// `g = e_αᵏ · e_βˡ`, eq. (11).

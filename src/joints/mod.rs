@@ -491,6 +491,20 @@ pub mod law_tests {
     use super::*;
     use crate::rotation::exp_map;
 
+    /// Generic attachments (offsets and tilted triads) for the law tests.
+    pub fn attachments() -> [Attachment; 2] {
+        [
+            Attachment {
+                offset: V3([0.3, -0.2, 0.5]),
+                triad: exp_map(&V3([0.1, 0.2, 0.3])),
+            },
+            Attachment {
+                offset: V3([-0.4, 0.1, 0.2]),
+                triad: exp_map(&V3([0.0, -0.5, 0.3])),
+            },
+        ]
+    }
+
     pub fn random_state(seed: f64, nq: usize) -> JointState<f64> {
         let s = |k: f64| ((seed + k) * 12.9898).sin() * 1.3;
         let mut q = [0.0; MAX_COORDS];
@@ -601,21 +615,8 @@ mod kernel_tests {
     use crate::rotation::exp_map;
     use crate::state::{NodeState, State};
 
-    fn attachments() -> [Attachment; 2] {
-        [
-            Attachment {
-                offset: V3([0.3, -0.2, 0.5]),
-                triad: exp_map(&V3([0.1, 0.2, 0.3])),
-            },
-            Attachment {
-                offset: V3([-0.4, 0.1, 0.2]),
-                triad: exp_map(&V3([0.0, -0.5, 0.3])),
-            },
-        ]
-    }
-
     fn laws() -> Vec<JointLaw> {
-        let at = attachments();
+        let at = super::law_tests::attachments();
         vec![
             JointLaw::Spherical(spherical::Spherical { at }),
             JointLaw::Universal(universal::Universal { at }),

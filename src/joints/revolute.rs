@@ -71,23 +71,13 @@ pub fn relative_angle(s: &JointState<f64>, at: &[Attachment; 2]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::joints::law_tests::assert_law;
+    use crate::joints::law_tests::{assert_law, attachments};
     use crate::rotation::exp_map;
     use crate::vec3::V3;
 
     #[test]
     fn discrete_gradient_exact_and_rate_consistent() {
-        let at = [
-            Attachment {
-                offset: V3([0.3, -0.2, 0.5]),
-                triad: exp_map(&V3([0.1, 0.2, 0.3])),
-            },
-            Attachment {
-                offset: V3([-0.4, 0.1, 0.2]),
-                triad: exp_map(&V3([0.0, -0.5, 0.3])),
-            },
-        ];
-        assert_law(&Revolute { at });
+        assert_law(&Revolute { at: attachments() });
     }
 
     #[test]

@@ -32,22 +32,10 @@ impl ConstraintLaw for Spherical {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::joints::law_tests::assert_law;
-    use crate::rotation::exp_map;
-    use crate::vec3::V3;
+    use crate::joints::law_tests::{assert_law, attachments};
 
     #[test]
     fn discrete_gradient_exact_and_rate_consistent() {
-        let at = [
-            Attachment {
-                offset: V3([0.3, -0.2, 0.5]),
-                triad: exp_map(&V3([0.1, 0.2, 0.3])),
-            },
-            Attachment {
-                offset: V3([-0.4, 0.1, 0.2]),
-                triad: exp_map(&V3([0.0, -0.5, 0.3])),
-            },
-        ];
-        assert_law(&Spherical { at });
+        assert_law(&Spherical { at: attachments() });
     }
 }

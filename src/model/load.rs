@@ -4,28 +4,24 @@ use super::{Model, ModelError, ModelErrors};
 
 /// Parse and validate a YAML model.
 pub fn from_yaml_str(text: &str) -> Result<Model, ModelErrors> {
-    let de = serde_norway::Deserializer::from_str(text);
-    let model: Model = serde_path_to_error::deserialize(de).map_err(|e| {
-        let path = e.path().to_string();
-        let inner = e.into_inner();
-        ModelErrors::one(ModelError::new(
-            if path == "." { String::new() } else { path },
-            clean(&inner.to_string()),
-        ))
-    })?;
-    model.validate()?;
-    Ok(model)
+    parse(serde_norway::Deserializer::from_str(text))
 }
 
 /// Parse and validate a JSON model (what the Python builder sends).
 pub fn from_json_str(text: &str) -> Result<Model, ModelErrors> {
-    let mut de = serde_json::Deserializer::from_str(text);
-    let model: Model = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+    parse(&mut serde_json::Deserializer::from_str(text))
+}
+
+fn parse<'de, D: serde::Deserializer<'de>>(de: D) -> Result<Model, ModelErrors>
+where
+    D::Error: std::fmt::Display,
+{
+    let model: Model = serde_path_to_error::deserialize(de).map_err(|e| {
         let path = e.path().to_string();
-        let inner = e.into_inner();
+        let inner = e.into_inner().to_string();
         ModelErrors::one(ModelError::new(
             if path == "." { String::new() } else { path },
-            clean(&inner.to_string()),
+            clean(&inner),
         ))
     })?;
     model.validate()?;
