@@ -24,6 +24,8 @@ pub struct Channels {
     pub names: Vec<String>,
     pub units: Vec<&'static str>,
     sources: Vec<(Source, usize)>,
+    /// Channels whose values are step quantities (multipliers: reactions, driving forces).
+    step_channels: Vec<usize>,
 }
 
 /// Running totals over the run, needed by the energy sensor.
@@ -49,15 +51,47 @@ const ENERGY: [&str; 8] = [
 ];
 
 impl Channels {
+    /// Indices of the channels that are step quantities: the multipliers of a step are
+    /// step-average forces, which belong to the mid-step time and are interpolated to the
+    /// sample times by the simulation.
+    pub fn step_channels(&self) -> &[usize] {
+        &self.step_channels
+    }
+
+    /// Values of the step channels (in `step_channels` order) for a converged step.
+    pub fn step_values(&self, report: &StepReport, out: &mut Vec<f64>) {
+        for &c in &self.step_channels {
+            let (src, k) = &self.sources[c];
+            out.push(match src {
+                Source::Reaction(j) => {
+                    let (f, m) = report.reactions[*j];
+                    if *k < 3 {
+                        f.0[*k]
+                    } else {
+                        m.0[k - 3]
+                    }
+                }
+                Source::Drive(d) => report.drive_forces[*d],
+                _ => unreachable!("only multiplier channels are step channels"),
+            });
+        }
+    }
+
     pub fn new(model: &Model, sys: &System) -> Channels {
         let mut c = Channels {
             names: vec![],
             units: vec![],
             sources: vec![],
+            step_channels: vec![],
         };
         let add =
             |c: &mut Channels, sensor: &str, comps: &[&str], unit: &[&'static str], src: Source| {
                 for (k, comp) in comps.iter().enumerate() {
+                    let step_quantity = matches!(src, Source::Reaction(_))
+                        || (matches!(src, Source::Drive(_)) && k == 0);
+                    if step_quantity {
+                        c.step_channels.push(c.names.len());
+                    }
                     c.names.push(format!("{sensor}.{comp}"));
                     c.units.push(unit[k.min(unit.len() - 1)]);
                     c.sources.push((src.clone(), k));
@@ -142,16 +176,8 @@ impl Channels {
         self.names.is_empty()
     }
 
-    /// Appends one sample. `report` is the step that produced `state` (None at t = 0, where
-    /// multiplier-based channels are NaN: they are step quantities).
-    pub fn sample(
-        &self,
-        sys: &System,
-        state: &State,
-        report: Option<&StepReport>,
-        totals: &Totals,
-        out: &mut Vec<f64>,
-    ) {
+    /// Appends one sample of the state channels; step channels get a NaN placeholder.
+    pub fn sample(&self, sys: &System, state: &State, totals: &Totals, out: &mut Vec<f64>) {
         let mut energy: Option<[f64; 8]> = None;
         for (src, k) in &self.sources {
             let v = match src {
@@ -180,20 +206,11 @@ impl Channels {
                         state.coord_rates[*c]
                     }
                 }
-                Source::Reaction(j) => match report {
-                    Some(r) => {
-                        let (f, m) = r.reactions[*j];
-                        if *k < 3 {
-                            f.0[*k]
-                        } else {
-                            m.0[k - 3]
-                        }
-                    }
-                    None => f64::NAN,
-                },
+                // Step quantities are filled in by `step_values` and interpolation.
+                Source::Reaction(_) => f64::NAN,
                 Source::Drive(d) => {
                     if *k == 0 {
-                        report.map_or(f64::NAN, |r| r.drive_forces[*d])
+                        f64::NAN
                     } else {
                         totals.per_drive_work.get(*d).copied().unwrap_or(0.0)
                     }

@@ -56,6 +56,10 @@ pub struct Simulation {
     /// Recorded samples not yet taken: times and row-major values.
     times: Vec<f64>,
     values: Vec<f64>,
+    /// Samples waiting for the next step to interpolate their step channels.
+    pending: std::collections::VecDeque<(f64, Vec<f64>)>,
+    /// Step-channel values of the last two steps, with their mid-step times.
+    recent: std::collections::VecDeque<(f64, Vec<f64>)>,
     step_index: u64,
     output_every: u64,
 }
@@ -112,6 +116,8 @@ impl Simulation {
             last_report: None,
             times: vec![],
             values: vec![],
+            pending: Default::default(),
+            recent: Default::default(),
             step_index: 0,
             output_every,
         };
@@ -119,15 +125,65 @@ impl Simulation {
         Ok(sim)
     }
 
+    /// Records a sample at the current time. Its state channels are final; its step channels
+    /// (multipliers) wait in `pending` for the step after it, to be interpolated.
     fn record(&mut self) {
-        self.times.push(self.state.t);
-        self.channels.sample(
-            &self.system,
-            &self.state,
-            self.last_report.as_ref(),
-            &self.totals,
-            &mut self.values,
-        );
+        let mut row = Vec::with_capacity(self.channels.len());
+        self.channels
+            .sample(&self.system, &self.state, &self.totals, &mut row);
+        if self.channels.step_channels().is_empty() {
+            self.times.push(self.state.t);
+            self.values.extend_from_slice(&row);
+        } else {
+            self.pending.push_back((self.state.t, row));
+            self.finalize_pending(false);
+        }
+    }
+
+    /// Fills the step channels of pending samples from the step values around their time:
+    /// a step's multipliers are step-average forces belonging to its mid-step time, so the
+    /// value at a sample time is interpolated between the steps before and after it (which
+    /// also cancels EP's period-2 multiplier oscillation). Samples before the first step's
+    /// mid-time are extrapolated from the first two steps. With `flush`, every pending sample
+    /// is completed with what is available (extrapolating from the last steps).
+    fn finalize_pending(&mut self, flush: bool) {
+        while let Some((t, _)) = self.pending.front() {
+            let t = *t;
+            let n = self.recent.len();
+            let newest_after = n > 0 && self.recent[n - 1].0 >= t;
+            if !(newest_after && n >= 2) && !flush {
+                break;
+            }
+            let (_, mut row) = self.pending.pop_front().expect("front exists");
+            let step = self.channels.step_channels();
+            for (slot, &c) in step.iter().enumerate() {
+                row[c] = match n {
+                    0 => f64::NAN,
+                    1 => self.recent[0].1[slot],
+                    _ => {
+                        let (ta, va) = (self.recent[n - 2].0, self.recent[n - 2].1[slot]);
+                        let (tb, vb) = (self.recent[n - 1].0, self.recent[n - 1].1[slot]);
+                        va + (vb - va) * (t - ta) / (tb - ta)
+                    }
+                };
+            }
+            self.times.push(t);
+            self.values.extend_from_slice(&row);
+        }
+    }
+
+    /// Keeps the step values of the last two steps (time of each: its mid-step).
+    fn push_step_values(&mut self, t_mid: f64, report: &StepReport) {
+        if self.channels.step_channels().is_empty() {
+            return;
+        }
+        let mut v = Vec::with_capacity(self.channels.step_channels().len());
+        self.channels.step_values(report, &mut v);
+        if self.recent.len() == 2 {
+            self.recent.pop_front();
+        }
+        self.recent.push_back((t_mid, v));
+        self.finalize_pending(false);
     }
 
     /// Takes the samples recorded since the last call: (times, row-major values).
@@ -144,6 +200,7 @@ impl Simulation {
 
     /// One step of `h`, retried as two halves (recursively) if Newton fails.
     fn advance_interval(&mut self, h: f64, depth: u32) -> Result<(), StepFailure> {
+        let e_t_i = self.state.t;
         let e_i = self.energy();
         match self.integrator.step(&self.system, &self.state, h) {
             Ok((state, report)) => {
@@ -170,6 +227,7 @@ impl Simulation {
                     .stats
                     .max_constraint_work
                     .max(report.constraint_work.abs());
+                self.push_step_values(e_t_i + 0.5 * h, &report);
                 self.last_report = Some(report);
                 Ok(())
             }
@@ -192,7 +250,12 @@ impl Simulation {
             // Land exactly on t_end; otherwise steps are k·dt from 0 to avoid drift in t.
             let next = ((self.step_index + 1) as f64 * dt).min(t_end);
             let h = next - self.state.t;
-            self.advance_interval(h, 0)?;
+            if let Err(e) = self.advance_interval(h, 0) {
+                // Keep every completed step: complete the pending samples and stop.
+                self.finalize_pending(true);
+                self.update_stats();
+                return Err(e);
+            }
             self.state.t = next;
             self.step_index += 1;
             if self.step_index % self.output_every == 0
@@ -201,11 +264,18 @@ impl Simulation {
                 self.record();
             }
         }
+        if self.done() {
+            self.finalize_pending(true);
+        }
+        self.update_stats();
+        Ok(())
+    }
+
+    fn update_stats(&mut self) {
         self.stats.newton_iterations = self.integrator.total_iterations;
         self.stats.factorizations = self.integrator.matrix.numeric_factorizations;
         self.stats.symbolic_factorizations = self.integrator.matrix.symbolic_factorizations;
         self.stats.pattern_misses = self.integrator.pattern_misses;
-        Ok(())
     }
 
     pub fn done(&self) -> bool {

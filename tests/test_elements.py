@@ -97,8 +97,9 @@ def test_damper_dissipates_and_the_energy_balance_closes(scheme):
 
 
 def test_reaction_is_the_force_that_moves_the_body():
-    # EP momentum balance of the bob: m (v_f − v_i)/h = m g + F_pin, exactly, with F_pin the
-    # reported reaction on node2 (a step-average force).
+    # Newton's law for the bob at every sample time: F_pin = m (a − g), with the acceleration
+    # from central differences of the recorded velocities (O(h²), and blind to EP's
+    # period-2 velocity oscillation, which has equal signs two steps apart).
     mass, h = 2.0, 1e-3
     m = fd.Model("pendulum", gravity=[0, 0, -9.81])
     m.node("bob", [1, 0, 0])
@@ -106,11 +107,14 @@ def test_reaction_is_the_force_that_moves_the_body():
     m.revolute("pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0])
     m.sensor("joint_reaction", "rx", joint="pin")
     track(m, "bob")
-    res = fd.simulate(m, scheme="ep", dt=h, t_end=1.0, newton_tol=1e-13)
-    g = np.array([0, 0, -9.81])
-    v = np.stack([res[f"bob_vel.v{c}"].values for c in "xyz"], axis=-1)
-    f = np.stack([res[f"rx.F{c}"].values for c in "xyz"], axis=-1)
-    lhs = mass * np.diff(v, axis=0) / h
-    np.testing.assert_allclose(lhs, mass * g + f[1:], atol=1e-8 * mass * 9.81)
-    # The pin carries the weight plus the centripetal force: tens of newtons at the bottom.
-    assert np.max(np.linalg.norm(f[1:], axis=1)) > 3 * mass * 9.81 * 0.9
+    for scheme in ["ep", "ed"]:
+        res = fd.simulate(m, scheme=scheme, dt=h, t_end=1.0, newton_tol=1e-13)
+        g = np.array([0, 0, -9.81])
+        v = np.stack([res[f"bob_vel.v{c}"].values for c in "xyz"], axis=-1)
+        f = np.stack([res[f"rx.F{c}"].values for c in "xyz"], axis=-1)
+        accel = (v[2:] - v[:-2]) / (2 * h)
+        # (ω h)² ~ 1e-4 relative at the peak loads of this swing.
+        np.testing.assert_allclose(f[1:-1], mass * (accel - g), atol=1e-3 * mass * 9.81)
+        # The pin carries the weight plus the centripetal force: tens of newtons at the bottom.
+        assert np.max(np.linalg.norm(f, axis=1)) > 3 * mass * 9.81 * 0.9
+        assert np.all(np.isfinite(f))
