@@ -92,6 +92,12 @@ impl PySimulation {
         })
     }
 
+    /// Completes samples still waiting for the next step (call before a final take_samples
+    /// when a run is interrupted).
+    fn flush(&mut self) {
+        self.sim.flush();
+    }
+
     /// Samples recorded since the last call: (times[n], values[n, channels]).
     fn take_samples<'py>(
         &mut self,

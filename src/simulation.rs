@@ -186,6 +186,12 @@ impl Simulation {
         self.finalize_pending(false);
     }
 
+    /// Completes the samples still waiting for a next step (extrapolating their step
+    /// channels), e.g. when a run is interrupted.
+    pub fn flush(&mut self) {
+        self.finalize_pending(true);
+    }
+
     /// Takes the samples recorded since the last call: (times, row-major values).
     pub fn take_samples(&mut self) -> (Vec<f64>, Vec<f64>) {
         (

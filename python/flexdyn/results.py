@@ -112,26 +112,33 @@ def simulate(
     chunks_t, chunks_v = [], []
     start = time.perf_counter()
     error = None
+
+    def drain(callback=True):
+        """Hands the samples Rust has recorded to the file (first) and to the caller."""
+        t, v = sim.take_samples()
+        if writer:
+            writer.append(t, v)
+        else:
+            chunks_t.append(t)
+            chunks_v.append(v)
+        if callback and on_chunk is not None:
+            on_chunk(t, v)
+
     try:
         while not sim.done:
             try:
                 sim.advance_to(sim.t + CHUNK_STEPS * sim.dt)
             except _core.SolverError as e:
                 error = e
-            t, v = sim.take_samples()
-            if on_chunk is not None:
-                on_chunk(t, v)
-            if writer:
-                writer.append(t, v)
-            else:
-                chunks_t.append(t)
-                chunks_v.append(v)
+            drain()
             if progress:
                 _progress(sim.t, sim.t_end, start)
             if error is not None:
                 break
     except KeyboardInterrupt:
         error = KeyboardInterrupt(f"interrupted at t = {sim.t:.6g} s; completed steps were kept")
+        sim.flush()
+        drain(callback=False)
     finally:
         wall = time.perf_counter() - start
         stats = dict(sim.stats)
