@@ -304,7 +304,8 @@ impl Simulation {
 
 /// Projects the initial velocities onto the velocity-level constraints, as the closest
 /// velocities in the kinetic-energy norm: `min ½|V − V₀|²_M` subject to `B V + ∂C/∂t = 0`.
-/// Coordinate rates carry a negligible weight, so they follow from the constraints. Returns
+/// Coordinate rates, and the velocities of nodes the model gave none for, carry a negligible
+/// weight, so they follow from the constraints and the given velocities. Returns
 /// each node's velocity change (translational, or rotational times the model size).
 pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
     let mut change = vec![0.0; sys.layout.n_nodes];
@@ -356,12 +357,20 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
         mass[k.node] += k.mass;
         inertia[k.node] = inertia[k.node] + k.inertia;
     }
+    // Nodes whose velocities the model did not give follow the others: when any node's
+    // velocity was given, theirs carry a negligible weight (relative weighting among them
+    // stays the kinetic-energy metric).
+    let any_given = sys.velocity_given.iter().any(|&g| g);
     for a in 0..lay.n_nodes {
         if mass[a] <= 0.0 {
             mass[a] = floor;
         }
         if inertia[a].max_abs() <= 0.0 {
             inertia[a] = crate::vec3::M3::identity().scale_f(floor * sys.length_ref.powi(2));
+        }
+        if any_given && !sys.velocity_given[a] {
+            mass[a] *= 1e-10;
+            inertia[a] = inertia[a].scale_f(1e-10);
         }
     }
     for a in 0..lay.n_nodes {

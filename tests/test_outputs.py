@@ -143,3 +143,23 @@ def test_an_interrupted_run_keeps_a_valid_file(tmp_nc, monkeypatch):
     # (plus the sample that was waiting for the next step, completed by the flush).
     assert sum(seen) <= on_disk.sizes["time"] <= sum(seen) + 1
     assert np.all(np.isfinite(on_disk["e.total"].values))
+
+
+def test_unspecified_velocities_follow_the_given_ones():
+    # Node b is clamped to node a and given no velocity: it takes a's motion, and a's given
+    # velocity is kept (no warning).
+    m = fd.Model("carried")
+    m.node("a", [0, 0, 0], velocity=[1.0, 0, 0], angular_velocity=[0, 0, 2.0])
+    m.node("b", [0.5, 0, 0])
+    m.rigid_body("body_a", "a", mass=1.0, inertia=[1, 1, 1])
+    m.rigid_body("body_b", "b", mass=5.0, inertia=[1, 1, 1])
+    m.clamp("weld", "a", "b")
+    m.sensor("node_velocity", "va", node="a").sensor("node_velocity", "vb", node="b")
+    res = fd.simulate(m, scheme="ed", dt=1e-3, t_end=0.002)
+    assert res.attrs["warnings_list"] == []
+    assert res["va.vx"].values[0] == pytest.approx(1.0, abs=1e-12)
+    assert res["va.wz"].values[0] == pytest.approx(2.0, abs=1e-12)
+    # v_b = v_a + ω × r = (1, 1, 0), ω_b = ω_a.
+    assert res["vb.vx"].values[0] == pytest.approx(1.0, abs=1e-9)
+    assert res["vb.vy"].values[0] == pytest.approx(1.0, abs=1e-9)
+    assert res["vb.wz"].values[0] == pytest.approx(2.0, abs=1e-9)
