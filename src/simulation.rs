@@ -369,8 +369,8 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
             inertia[a] = crate::vec3::M3::identity().scale_f(floor * sys.length_ref.powi(2));
         }
         if any_given && !sys.velocity_given[a] {
-            mass[a] *= 1e-10;
-            inertia[a] = inertia[a].scale_f(1e-10);
+            mass[a] *= 1e-12;
+            inertia[a] = inertia[a].scale_f(1e-12);
         }
     }
     for a in 0..lay.n_nodes {
