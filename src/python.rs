@@ -164,7 +164,7 @@ impl PySimulation {
         d.set_item("halvings", s.halvings)?;
         d.set_item("newton_iterations", s.newton_iterations)?;
         d.set_item("factorizations", s.factorizations)?;
-        d.set_item("symbolic_factorizations", s.symbolic_factorizations)?;
+        d.set_item("orderings", s.orderings)?;
         d.set_item("max_constraint_violation", s.max_constraint_violation)?;
         d.set_item("max_constraint_work", s.max_constraint_work)?;
         d.set_item("max_energy_defect", s.max_energy_defect)?;

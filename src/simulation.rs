@@ -19,7 +19,8 @@ pub struct RunStats {
     pub halvings: usize,
     pub newton_iterations: usize,
     pub factorizations: usize,
-    pub symbolic_factorizations: usize,
+    /// Fill-reducing orderings computed (once per sparsity pattern).
+    pub orderings: usize,
     pub max_constraint_violation: f64,
     pub max_constraint_work: f64,
     /// Largest |ΔE − W_drive − W_ext − W_damp + D| of a step: the energy identity's defect.
@@ -280,7 +281,7 @@ impl Simulation {
     fn update_stats(&mut self) {
         self.stats.newton_iterations = self.integrator.total_iterations;
         self.stats.factorizations = self.integrator.matrix.numeric_factorizations;
-        self.stats.symbolic_factorizations = self.integrator.matrix.symbolic_factorizations;
+        self.stats.orderings = self.integrator.matrix.orderings;
         self.stats.pattern_misses = self.integrator.pattern_misses;
     }
 

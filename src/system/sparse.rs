@@ -24,7 +24,8 @@ pub struct NewtonMatrix {
     lu: SimplicialLu<usize, f64>,
     scratch: MemBuffer,
     pub numeric_factorizations: usize,
-    pub symbolic_factorizations: usize,
+    /// Fill-reducing orderings computed (once per sparsity pattern).
+    pub orderings: usize,
 }
 
 impl NewtonMatrix {
@@ -109,7 +110,7 @@ impl NewtonMatrix {
             lu: SimplicialLu::new(),
             scratch: MemBuffer::new(req),
             numeric_factorizations: 0,
-            symbolic_factorizations: 1,
+            orderings: 1,
         };
         (m, positions)
     }
@@ -264,7 +265,7 @@ mod tests {
         }
         m.factor().unwrap();
         assert_eq!(
-            (m.numeric_factorizations, m.symbolic_factorizations),
+            (m.numeric_factorizations, m.orderings),
             (2, 1)
         );
     }
