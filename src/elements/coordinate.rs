@@ -41,7 +41,7 @@ impl CoordinateSpring {
             return 0.0;
         }
         let dq = y[self.unknowns[0]];
-        let qj = y[self.unknowns[1]];
+        let qj = y[self.unknowns[1]] / ctx.h;
         let qf = 2.0 * dq / ctx.h - qj;
         ctx.h / 6.0 * (qj - qf)
     }
@@ -60,7 +60,7 @@ impl Kernel for CoordinateSpring {
         // Residual rows hold −P (force on the coordinate with the sign of the inertia rows).
         r[0] += dq * (self.damping / h);
         if ctx.ed() {
-            let rate_j = y[1];
+            let rate_j = y[1] / h;
             let rate_f = dq * (2.0 / h) - rate_j;
             let eps_j = (rate_j - rate_f) * (h / 6.0) + qi;
             let mean = (eps_j + eps_f) * 0.5 - self.rest;
@@ -138,7 +138,7 @@ impl Kernel for CoordinateDrive {
         let qi = ctx.state.coords[self.coord];
         let dq = y[0];
         if ctx.ed() {
-            let (rate_j, mf, md) = (y[1], y[2], y[3]);
+            let (rate_j, mf, md) = (y[1] / ctx.h, y[2], y[3]);
             let rate_f = dq * (2.0 / ctx.h) - rate_j;
             // B = 1: P_f = −λ_f, P_j = λ_d; rows hold −P_f and −P_j/6.
             r[0] += mf * s;

@@ -69,7 +69,7 @@ impl Kernel for NodeInertia {
         let wi = V3::<T>::from_f64(ni.w);
         // Velocities at f from Δ = h (V_start + V_f)/2, V_start = V_i (EP) or V_j (ED).
         let (vs, ws) = if ctx.ed() {
-            (v3(y, 6), v3(y, 9))
+            (v3(y, 6).scale_f(1.0 / h), v3(y, 9).scale_f(1.0 / h))
         } else {
             (vi, wi)
         };

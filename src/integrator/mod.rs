@@ -166,14 +166,14 @@ impl Integrator {
             n.w.scale_f(h).write_to(&mut self.y[d + 3..]);
             if ed {
                 let j = layout.node_jump(a);
-                n.v.write_to(&mut self.y[j..]);
-                n.w.write_to(&mut self.y[j + 3..]);
+                n.v.scale_f(h).write_to(&mut self.y[j..]);
+                n.w.scale_f(h).write_to(&mut self.y[j + 3..]);
             }
         }
         for c in 0..layout.n_coords {
             self.y[layout.coord_delta(c)] = h * state.coord_rates[c];
             if ed {
-                self.y[layout.coord_jump(c)] = state.coord_rates[c];
+                self.y[layout.coord_jump(c)] = h * state.coord_rates[c];
             }
         }
         for r in 0..layout.n_rows {
@@ -358,8 +358,8 @@ impl Integrator {
             let (vs, ws) = if ed {
                 let j = layout.node_jump(a);
                 (
-                    V3([y[j], y[j + 1], y[j + 2]]),
-                    V3([y[j + 3], y[j + 4], y[j + 5]]),
+                    V3([y[j], y[j + 1], y[j + 2]]).scale_f(1.0 / h),
+                    V3([y[j + 3], y[j + 4], y[j + 5]]).scale_f(1.0 / h),
                 )
             } else {
                 (n.v, n.w)
@@ -376,7 +376,7 @@ impl Integrator {
         for c in 0..layout.n_coords {
             let dq = y[layout.coord_delta(c)];
             let start = if ed {
-                y[layout.coord_jump(c)]
+                y[layout.coord_jump(c)] / h
             } else {
                 st.coord_rates[c]
             };
@@ -402,8 +402,8 @@ impl Integrator {
             for k in &sys.inertias {
                 let j = layout.node_jump(k.node);
                 let n = &st.nodes[k.node];
-                let dv = V3([y[j], y[j + 1], y[j + 2]]) - n.v;
-                let dw = V3([y[j + 3], y[j + 4], y[j + 5]]) - n.w;
+                let dv = V3([y[j], y[j + 1], y[j + 2]]).scale_f(1.0 / h) - n.v;
+                let dw = V3([y[j + 3], y[j + 4], y[j + 5]]).scale_f(1.0 / h) - n.w;
                 d += 0.5 * k.mass * dv.norm_sq() + 0.5 * dw.dot(&k.inertia.mul_v(&dw));
             }
             for sp in &sys.springs {

@@ -458,7 +458,7 @@ impl Kernel for JointKernel {
         let mut vf = [(V3::zero(), V3::zero()); 2];
         for k in 0..2 {
             if let (Some(d), Some(j)) = (self.slots[k].delta, self.slots[k].jump) {
-                vj[k] = (v3(y, j), v3(y, j + 3));
+                vj[k] = (v3(y, j).scale_f(1.0 / h), v3(y, j + 3).scale_f(1.0 / h));
                 vf[k] = (
                     v3(y, d).scale_f(2.0 / h) - vj[k].0,
                     rs[k].scale_f(2.0 / h) - vj[k].1,
@@ -469,7 +469,7 @@ impl Kernel for JointKernel {
         let mut qf = [T::zero(); MAX_COORDS];
         for c in 0..self.coords.len() {
             let d = y[self.coord_slot + 2 * c];
-            qj[c] = y[self.coord_slot + 2 * c + 1];
+            qj[c] = y[self.coord_slot + 2 * c + 1] / h;
             qf[c] = d * (2.0 / h) - qj[c];
         }
         let nc = self.coords.len();

@@ -1,7 +1,9 @@
 //! Numbering of a step's unknowns. The layout depends on the scheme: EP solves for the
 //! increments Δ and one multiplier per constraint row; ED (strain-rate-jump form) also solves
 //! for the jump velocities V_j and a second, velocity-level multiplier per row
-//! (`reference/ed-scheme-notes.md` §3.1). Every unknown also names a residual row, so the
+//! (`reference/ed-scheme-notes.md` §3.1). The jump velocities are carried as `h V_j`
+//! (displacement units), so that every column of the Newton matrix scales as m/h² and its
+//! conditioning does not degrade as the step shrinks (`tests/conditioning.rs`). Every unknown also names a residual row, so the
 //! Newton matrix is square with a structurally symmetric pattern.
 
 use crate::model::Scheme;

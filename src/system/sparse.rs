@@ -264,9 +264,6 @@ mod tests {
             assert!((r - [1.0, 2.0, 3.0][i]).abs() < 1e-14);
         }
         m.factor().unwrap();
-        assert_eq!(
-            (m.numeric_factorizations, m.orderings),
-            (2, 1)
-        );
+        assert_eq!((m.numeric_factorizations, m.orderings), (2, 1));
     }
 }
