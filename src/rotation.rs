@@ -301,7 +301,7 @@ mod tests {
     fn near_half_turn_is_a_clear_error_not_nan() {
         let n = v([1.0, 2.0, 2.0]).scale_f(1.0 / 3.0);
         for deg in [149.0, 151.0, 179.9, 180.0] {
-            let a = (deg as f64).to_radians();
+            let a = f64::to_radians(deg);
             let r = n.scale_f(2.0 * (a / 2.0).tan());
             let res = check_step_rotation(&r);
             if deg < 150.0 {

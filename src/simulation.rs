@@ -151,8 +151,9 @@ impl Simulation {
         while let Some((t, _)) = self.pending.front() {
             let t = *t;
             let n = self.recent.len();
-            let newest_after = n > 0 && self.recent[n - 1].0 >= t;
-            if !(newest_after && n >= 2) && !flush {
+            // Interpolation needs two steps, the newer one after the sample time.
+            let ready = n >= 2 && self.recent[n - 1].0 >= t;
+            if !ready && !flush {
                 break;
             }
             let (_, mut row) = self.pending.pop_front().expect("front exists");

@@ -114,9 +114,9 @@ impl Integrator {
                 let k = 10.0 * t + a as f64;
                 let tilt = V3([wiggle(k), wiggle(k + 0.1), wiggle(k + 0.2)]);
                 node.r = exp_map(&tilt.scale_f(0.3)).mul_m(&node.r);
-                node.x = node.x + tilt.scale_f(0.01 * sys.length_ref);
-                node.v = node.v + tilt.scale_f(0.1);
-                node.w = node.w + V3([wiggle(k + 0.3), wiggle(k + 0.4), wiggle(k + 0.5)]);
+                node.x += tilt.scale_f(0.01 * sys.length_ref);
+                node.v += tilt.scale_f(0.1);
+                node.w += V3([wiggle(k + 0.3), wiggle(k + 0.4), wiggle(k + 0.5)]);
             }
             for (c, q) in state.coords.iter_mut().enumerate() {
                 *q += 0.1 * wiggle(t + c as f64 + 0.6);

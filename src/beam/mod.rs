@@ -1,0 +1,3 @@
+//! Geometrically exact beams (issue 3): shape functions and sections so far.
+pub mod section;
+pub mod shape;

@@ -1,0 +1,248 @@
+//! Beam cross-sections: the 6×6 sectional stiffness and mass matrices in the section frame.
+//!
+//! Sectional strains are ordered `[e₁, γ₂, γ₃, κ₁, κ₂, κ₃]` (axial strain, transverse shear
+//! strains, twist and bending curvatures) and sectional velocities `[v₁ v₂ v₃, ω₁ ω₂ ω₃]`, all
+//! measured at the reference line in the section frame (axis 1 along the beam).
+
+use crate::vec3::{M3, V3};
+
+pub type Mat6 = [[f64; 6]; 6];
+
+/// The usual shorthand of a section: principal stiffnesses about the tension and shear
+/// centres, and mass properties about the centre of mass, with the centres' offsets (x₂, x₃)
+/// from the reference line.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Shorthand {
+    /// Axial stiffness EA, N.
+    pub ea: f64,
+    /// Shear stiffnesses GA₂, GA₃ (including shear correction factors), N.
+    pub ga2: f64,
+    pub ga3: f64,
+    /// Torsional stiffness GJ, N·m².
+    pub gj: f64,
+    /// Bending stiffnesses EI₂ (about axis 2, curvature κ₂) and EI₃, N·m².
+    pub ei2: f64,
+    pub ei3: f64,
+    /// Mass per unit length, kg/m.
+    pub m: f64,
+    /// Mass moments of inertia per unit length about the centre of mass: i₂₂ = ∫ρx₃², i₃₃ =
+    /// ∫ρx₂², i₂₃ = ∫ρx₂x₃ (kg·m); the polar moment is i₂₂ + i₃₃.
+    pub i22: f64,
+    pub i33: f64,
+    pub i23: f64,
+    pub cm_offset: [f64; 2],
+    pub tension_center: [f64; 2],
+    pub shear_center: [f64; 2],
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Section {
+    pub stiffness: Mat6,
+    pub mass: Mat6,
+}
+
+impl Section {
+    /// From full matrices; both must be symmetric positive definite.
+    pub fn from_matrices(stiffness: Mat6, mass: Mat6) -> Result<Section, String> {
+        check_spd(&stiffness, "stiffness")?;
+        check_spd(&mass, "mass")?;
+        Ok(Section { stiffness, mass })
+    }
+
+    /// From the shorthand. The strain energy per unit length is
+    /// `½EA(e₁ + x₃ᵗκ₂ − x₂ᵗκ₃)² + ½GA₂(γ₂ − x₃ˢκ₁)² + ½GA₃(γ₃ + x₂ˢκ₁)² + ½GJκ₁² + ½EI₂κ₂² + ½EI₃κ₃²`
+    /// (axial strain at the tension centre, shear strains at the shear centre), and the kinetic
+    /// energy `½m|v + ω × c|² + ½ωᵀJ_c ω` with the centre of mass at `c = (0, x₂ᶜ, x₃ᶜ)`.
+    pub fn from_shorthand(s: &Shorthand) -> Result<Section, String> {
+        let named = [
+            ("ea", s.ea),
+            ("ga2", s.ga2),
+            ("ga3", s.ga3),
+            ("gj", s.gj),
+            ("ei2", s.ei2),
+            ("ei3", s.ei3),
+            ("m", s.m),
+        ];
+        for (name, v) in named {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("{name} must be positive (got {v})"));
+            }
+        }
+        let [yt, zt] = s.tension_center;
+        let [ys, zs] = s.shear_center;
+        // Centred strains = T · reference strains.
+        let mut t = [[0.0; 6]; 6];
+        for (i, row) in t.iter_mut().enumerate() {
+            row[i] = 1.0;
+        }
+        t[0][4] = zt;
+        t[0][5] = -yt;
+        t[1][3] = -zs;
+        t[2][3] = ys;
+        let d = [s.ea, s.ga2, s.ga3, s.gj, s.ei2, s.ei3];
+        let mut k = [[0.0; 6]; 6];
+        for (i, ki) in k.iter_mut().enumerate() {
+            for (j, kij) in ki.iter_mut().enumerate() {
+                *kij = (0..6).map(|r| t[r][i] * d[r] * t[r][j]).sum();
+            }
+        }
+        let c = V3([0.0, s.cm_offset[0], s.cm_offset[1]]);
+        let jc = M3([
+            [s.i22 + s.i33, 0.0, 0.0],
+            [0.0, s.i22, -s.i23],
+            [0.0, -s.i23, s.i33],
+        ]);
+        let ct = c.tilde();
+        let m_c = ct.scale_f(s.m);
+        let j_ref = jc - ct.mul_m(&ct).scale_f(s.m);
+        let mut m = [[0.0; 6]; 6];
+        for i in 0..3 {
+            m[i][i] = s.m;
+            for j in 0..3 {
+                m[i][3 + j] = -m_c.0[i][j];
+                m[3 + i][j] = m_c.0[i][j];
+                m[3 + i][3 + j] = j_ref.0[i][j];
+            }
+        }
+        Section::from_matrices(k, m).map_err(|e| {
+            format!("{e} (check i22, i33 and i23: the section inertia must be positive definite)")
+        })
+    }
+}
+
+/// Symmetric and positive definite (Cholesky), with a message saying which.
+fn check_spd(a: &Mat6, what: &str) -> Result<(), String> {
+    let scale = a.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    if !a.iter().flatten().all(|v| v.is_finite()) || scale == 0.0 {
+        return Err(format!("{what} matrix must be finite and nonzero"));
+    }
+    for i in 0..6 {
+        for j in 0..i {
+            if (a[i][j] - a[j][i]).abs() > 1e-12 * scale {
+                return Err(format!(
+                    "{what} matrix must be symmetric (entry ({}, {}) differs from ({}, {}))",
+                    i + 1,
+                    j + 1,
+                    j + 1,
+                    i + 1
+                ));
+            }
+        }
+    }
+    let mut l = [[0.0; 6]; 6];
+    for j in 0..6 {
+        let d = a[j][j] - (0..j).map(|k| l[j][k] * l[j][k]).sum::<f64>();
+        if d <= 1e-14 * scale {
+            return Err(format!(
+                "{what} matrix must be positive definite (pivot {} is {d:.3e})",
+                j + 1
+            ));
+        }
+        l[j][j] = d.sqrt();
+        for i in j + 1..6 {
+            l[i][j] = (a[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>()) / l[j][j];
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Shorthand {
+        Shorthand {
+            ea: 44e6,
+            ga2: 2.8e6,
+            ga3: 14e6,
+            gj: 28e3,
+            ei2: 300e3,
+            ei3: 23e3,
+            m: 1.6,
+            i22: 1.0e-3,
+            i33: 11.0e-3,
+            i23: 0.5e-3,
+            cm_offset: [0.01, -0.02],
+            tension_center: [0.015, 0.005],
+            shear_center: [-0.01, 0.02],
+        }
+    }
+
+    fn quad(a: &Mat6, x: &[f64; 6]) -> f64 {
+        (0..6)
+            .map(|i| (0..6).map(|j| x[i] * a[i][j] * x[j]).sum::<f64>())
+            .sum::<f64>()
+            * 0.5
+    }
+
+    #[test]
+    fn beam_slider_section_without_offsets_is_diagonal() {
+        // The paper's beam (section 7.1): EA 44 MN, GK 2.8/14 MN, GJ 28 kN·m², EI 300/23 kN·m².
+        let s = Shorthand {
+            i23: 0.0,
+            cm_offset: [0.0; 2],
+            tension_center: [0.0; 2],
+            shear_center: [0.0; 2],
+            ..sample()
+        };
+        let sec = Section::from_shorthand(&s).unwrap();
+        let d = [44e6, 2.8e6, 14e6, 28e3, 300e3, 23e3];
+        for i in 0..6 {
+            for j in 0..6 {
+                assert_eq!(sec.stiffness[i][j], if i == j { d[i] } else { 0.0 });
+            }
+        }
+        assert_eq!(sec.mass[3][3], 12.0e-3);
+    }
+
+    #[test]
+    fn strain_and_kinetic_energies_match_their_definitions_with_offsets() {
+        let s = sample();
+        let sec = Section::from_shorthand(&s).unwrap();
+        let eps = [1e-4, -2e-4, 3e-4, 0.01, -0.02, 0.015];
+        let [yt, zt] = s.tension_center;
+        let [ys, zs] = s.shear_center;
+        let e = 0.5 * s.ea * (eps[0] + zt * eps[4] - yt * eps[5]).powi(2)
+            + 0.5 * s.ga2 * (eps[1] - zs * eps[3]).powi(2)
+            + 0.5 * s.ga3 * (eps[2] + ys * eps[3]).powi(2)
+            + 0.5 * s.gj * eps[3].powi(2)
+            + 0.5 * s.ei2 * eps[4].powi(2)
+            + 0.5 * s.ei3 * eps[5].powi(2);
+        assert!((quad(&sec.stiffness, &eps) - e).abs() < 1e-12 * e);
+        let v = V3([0.3, -1.2, 0.7]);
+        let w = V3([2.0, -0.5, 1.5]);
+        let c = V3([0.0, s.cm_offset[0], s.cm_offset[1]]);
+        let jc = M3([
+            [s.i22 + s.i33, 0.0, 0.0],
+            [0.0, s.i22, -s.i23],
+            [0.0, -s.i23, s.i33],
+        ]);
+        let vc = v + w.cross(&c);
+        let t = 0.5 * s.m * vc.norm_sq() + 0.5 * w.dot(&jc.mul_v(&w));
+        let x = [v.0[0], v.0[1], v.0[2], w.0[0], w.0[1], w.0[2]];
+        assert!((quad(&sec.mass, &x) - t).abs() < 1e-13 * t);
+    }
+
+    #[test]
+    fn inadmissible_sections_are_errors() {
+        assert!(Section::from_shorthand(&Shorthand {
+            ea: -1.0,
+            ..sample()
+        })
+        .unwrap_err()
+        .contains("ea must be positive"));
+        let bad_inertia = Shorthand {
+            i23: 0.01,
+            ..sample()
+        }; // i23² > i22·i33
+        assert!(Section::from_shorthand(&bad_inertia)
+            .unwrap_err()
+            .contains("positive definite"));
+        let mut k = Section::from_shorthand(&sample()).unwrap().stiffness;
+        k[0][1] += 1.0;
+        let m = Section::from_shorthand(&sample()).unwrap().mass;
+        assert!(Section::from_matrices(k, m)
+            .unwrap_err()
+            .contains("symmetric"));
+    }
+}
