@@ -170,6 +170,7 @@ mod tests {
             coords: vec![0.4],
             coord_rates: vec![1.0],
             lambda: vec![0.0],
+            history: vec![],
         };
         for scheme in [Scheme::Ep, Scheme::Ed] {
             let layout = Layout::new(scheme, 0, 1, 1);

@@ -110,6 +110,7 @@ mod tests {
             coords: vec![],
             coord_rates: vec![],
             lambda: vec![],
+            history: vec![],
         };
         for scheme in [Scheme::Ep, Scheme::Ed] {
             let layout = Layout::new(scheme, 1, 0, 0);

@@ -439,6 +439,8 @@ impl Integrator {
             coords,
             coord_rates: rates,
             lambda,
+            // No element carries history yet (beams will update theirs here).
+            history: st.history.clone(),
         };
         (state, report)
     }

@@ -639,6 +639,7 @@ mod kernel_tests {
             coords: vec![0.3],
             coord_rates: vec![-0.8],
             lambda: vec![],
+            history: vec![],
         };
         for scheme in [Scheme::Ep, Scheme::Ed] {
             for law in laws() {

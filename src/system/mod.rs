@@ -383,6 +383,7 @@ impl System {
             coords: coords0,
             coord_rates: vec![0.0; n_c],
             lambda: vec![0.0; n_rows],
+            history: vec![],
         };
         Ok(System {
             name: model.name.clone(),

@@ -1,0 +1,579 @@
+//! The geometrically exact beam element (Reissner/Simo, shear deformable) with the EP and ED
+//! discretisations of its elastic forces (DESIGN §8.3, ed-scheme-notes §5.4, generalised to
+//! 2-, 3- and 4-node elements).
+//!
+//! Rotations are interpolated *incrementally*: the spatial nodal Cayley increments
+//! `ρ^α = R^α_i r^α` are interpolated, `ρ(s) = h^α ρ^α`, and each Gauss point carries its own
+//! triad `R_g` and curvature `k*` as history, updated by the exact Cayley identities
+//! `R_g,f = cay(ρ_g) R_g,i` and `k*_f = k*_i + R_mᵀ H ρ′` with `R_m = (R_g,i + R_g,f)/2` and
+//! `H = I − ρρᵀ/(4 + ρᵀρ)`. The strains `e* = R_gᵀ x′ − ī₁ − e₀`, `κ = k* − k₀` then satisfy
+//! `e*_f − e*_i = R_mᵀ(Δx′ + x̃′_a ρ_g)` exactly, so with the mean sectional forces
+//! `N_m = C (ε_i + ε_f)/2` the work of the internal forces over a step is `U_f − U_i`.
+//! Inertia is lumped at the nodes (the rigid-body kernel).
+
+use super::section::Mat6;
+use super::shape::MAX_NODES;
+use crate::elements::{add3, v3, Kernel, StepCtx};
+use crate::rotation::cayley;
+use crate::scalar::Real;
+use crate::system::layout::Layout;
+use crate::vec3::{M3, V3};
+
+/// History entries per Gauss point: the triad (9, row-major) and the curvature k* (3).
+pub const HISTORY_PER_POINT: usize = 12;
+
+#[derive(Clone, Debug)]
+pub struct GaussPoint {
+    /// Quadrature weight times ds/dξ: integrates over arc length.
+    pub weight: f64,
+    /// Shape functions and their arc-length derivatives at the point.
+    pub h: [f64; MAX_NODES],
+    pub dh: [f64; MAX_NODES],
+    /// Sectional stiffness at the point (section frame).
+    pub stiffness: Mat6,
+    /// Strains of the unloaded reference configuration (pre-curvature, pre-twist).
+    pub e0: V3<f64>,
+    pub k0: V3<f64>,
+}
+
+#[derive(Clone, Debug)]
+pub struct BeamElement {
+    pub name: String,
+    /// Global node indices, in order along the element.
+    pub nodes: Vec<usize>,
+    pub points: Vec<GaussPoint>,
+    /// Offset of the element's history in `State::history`.
+    pub history: usize,
+    unknowns: Vec<usize>,
+}
+
+/// A Gauss point's triad and curvature read from the history.
+pub fn read_history(h: &[f64]) -> (M3<f64>, V3<f64>) {
+    let r = M3([[h[0], h[1], h[2]], [h[3], h[4], h[5]], [h[6], h[7], h[8]]]);
+    (r, V3([h[9], h[10], h[11]]))
+}
+
+pub fn write_history(h: &mut [f64], r: &M3<f64>, k: &V3<f64>) {
+    for i in 0..3 {
+        for j in 0..3 {
+            h[3 * i + j] = r.0[i][j];
+        }
+    }
+    h[9..12].copy_from_slice(&k.0);
+}
+
+/// Mid-point kinematics of one Gauss point over a step.
+struct PointStep<T> {
+    /// Strains at i and f, `[e*, κ]` relative to the reference.
+    eps_i: [T; 6],
+    eps_f: [T; 6],
+    rg_i: M3<T>,
+    rg_f: M3<T>,
+    rm: M3<T>,
+    hm: M3<T>,
+    xp_i: V3<T>,
+    xp_f: V3<T>,
+}
+
+fn mat6_mul<T: Real>(c: &Mat6, e: &[T; 6]) -> [T; 6] {
+    let mut n = [T::zero(); 6];
+    for (i, ni) in n.iter_mut().enumerate() {
+        for (j, ej) in e.iter().enumerate() {
+            *ni += *ej * c[i][j];
+        }
+    }
+    n
+}
+
+impl BeamElement {
+    pub fn new(
+        name: String,
+        nodes: Vec<usize>,
+        points: Vec<GaussPoint>,
+        history: usize,
+        layout: &Layout,
+    ) -> Self {
+        assert!(
+            (2..=MAX_NODES).contains(&nodes.len()),
+            "beam elements have 2 to 4 nodes"
+        );
+        let mut unknowns = Vec::new();
+        for &a in &nodes {
+            unknowns.extend((0..6).map(|k| layout.node_delta(a) + k));
+            if layout.ed() {
+                unknowns.extend((0..6).map(|k| layout.node_jump(a) + k));
+            }
+        }
+        BeamElement {
+            name,
+            nodes,
+            points,
+            history,
+            unknowns,
+        }
+    }
+
+    pub fn history_len(&self) -> usize {
+        self.points.len() * HISTORY_PER_POINT
+    }
+
+    fn per(ctx: &StepCtx) -> usize {
+        if ctx.ed() {
+            12
+        } else {
+            6
+        }
+    }
+
+    /// Kinematics of Gauss point `g` from the i-state, its history and the local increments.
+    fn point_step<T: Real>(&self, ctx: &StepCtx, g: usize, y: &[T]) -> PointStep<T> {
+        let p = &self.points[g];
+        let per = Self::per(ctx);
+        let hist = &ctx.state.history[self.history + g * HISTORY_PER_POINT..];
+        let (rg_i64, k_i64) = read_history(hist);
+        let rg_i = M3::<T>::from_f64(&rg_i64);
+        let mut xp_i = V3::<T>::zero();
+        let mut dxp = V3::<T>::zero();
+        let mut rho = V3::<T>::zero();
+        let mut rho_p = V3::<T>::zero();
+        for (a, &node) in self.nodes.iter().enumerate() {
+            let n = &ctx.state.nodes[node];
+            xp_i += V3::from_f64(n.x.scale_f(p.dh[a]));
+            dxp += v3(y, per * a).scale_f(p.dh[a]);
+            // Spatial nodal increment ρ^α = R^α_i r^α.
+            let rho_a = M3::<T>::from_f64(&n.r).mul_v(&v3(y, per * a + 3));
+            rho += rho_a.scale_f(p.h[a]);
+            rho_p += rho_a.scale_f(p.dh[a]);
+        }
+        let xp_f = xp_i + dxp;
+        let rg_f = cayley(&rho).mul_m(&rg_i);
+        let rm = (rg_i + rg_f).scale_f(0.5);
+        let hm = M3::identity() - rho.outer(&rho).scale(T::one() / (rho.norm_sq() + 4.0));
+        let e1 = V3::<T>::new(T::one(), T::zero(), T::zero());
+        let e_i = rg_i.tmul_v(&xp_i) - e1 - V3::from_f64(p.e0);
+        let e_f = rg_f.tmul_v(&xp_f) - e1 - V3::from_f64(p.e0);
+        let k_i = V3::<T>::from_f64(k_i64) - V3::from_f64(p.k0);
+        let k_f = k_i + rm.tmul_v(&hm.mul_v(&rho_p));
+        let mut eps_i = [T::zero(); 6];
+        let mut eps_f = [T::zero(); 6];
+        e_i.write_to(&mut eps_i[..3]);
+        k_i.write_to(&mut eps_i[3..]);
+        e_f.write_to(&mut eps_f[..3]);
+        k_f.write_to(&mut eps_f[3..]);
+        PointStep {
+            eps_i,
+            eps_f,
+            rg_i,
+            rg_f,
+            rm,
+            hm,
+            xp_i,
+            xp_f,
+        }
+    }
+
+    /// Adds `weight · B^Dᵀ N` to the f-rows: the exact discrete gradient's transpose.
+    /// `δe* = R_mᵀ(δx′ + x̃′_a δρ)` and `δκ = R_mᵀ H δρ′`, with `δρ^α` mapped to the material
+    /// unknowns by `R^α_iᵀ`.
+    fn add_discrete_forces<T: Real>(
+        &self,
+        ctx: &StepCtx,
+        g: usize,
+        ps: &PointStep<T>,
+        n: &[T; 6],
+        res: &mut [T],
+    ) {
+        let p = &self.points[g];
+        let per = Self::per(ctx);
+        let ne = ps.rm.mul_v(&V3([n[0], n[1], n[2]])).scale_f(p.weight);
+        let nk = ps
+            .hm
+            .mul_v(&ps.rm.mul_v(&V3([n[3], n[4], n[5]])))
+            .scale_f(p.weight);
+        let xa = (ps.xp_i + ps.xp_f).scale_f(0.5);
+        let arm = ne.cross(&xa);
+        for (a, &node) in self.nodes.iter().enumerate() {
+            let ri = M3::<T>::from_f64(&ctx.state.nodes[node].r);
+            add3(res, per * a, ne.scale_f(p.dh[a]));
+            add3(
+                res,
+                per * a + 3,
+                ri.tmul_v(&(arm.scale_f(p.h[a]) + nk.scale_f(p.dh[a]))),
+            );
+        }
+    }
+
+    /// Strain rate `ε̇ = B(q) V` at a state with triad `rg`, tangent `xp` and nodal rotations
+    /// `rot`, for nodal velocities (v, material W): `ė* = R_gᵀ(v′ + x̃′ ω_g)`, `κ̇ = R_gᵀ ω′`.
+    fn strain_rate<T: Real>(
+        &self,
+        g: usize,
+        rg: &M3<T>,
+        xp: &V3<T>,
+        rot: &[M3<T>],
+        vel: &[(V3<T>, V3<T>)],
+    ) -> [T; 6] {
+        let p = &self.points[g];
+        let mut vp = V3::<T>::zero();
+        let mut wg = V3::<T>::zero();
+        let mut wp = V3::<T>::zero();
+        for a in 0..self.nodes.len() {
+            let w = rot[a].mul_v(&vel[a].1);
+            vp += vel[a].0.scale_f(p.dh[a]);
+            wg += w.scale_f(p.h[a]);
+            wp += w.scale_f(p.dh[a]);
+        }
+        let e = rg.tmul_v(&(vp + xp.cross(&wg)));
+        let k = rg.tmul_v(&wp);
+        [e.0[0], e.0[1], e.0[2], k.0[0], k.0[1], k.0[2]]
+    }
+
+    /// Adds `weight · B(q)ᵀ N` to the rows at `offset` (0: f-rows, 6: j-rows) of each node.
+    #[allow(clippy::too_many_arguments)]
+    fn add_rate_forces<T: Real>(
+        &self,
+        ctx: &StepCtx,
+        g: usize,
+        rg: &M3<T>,
+        xp: &V3<T>,
+        rot: &[M3<T>],
+        n: &[T; 6],
+        offset: usize,
+        res: &mut [T],
+    ) {
+        let p = &self.points[g];
+        let per = Self::per(ctx);
+        let ne = rg.mul_v(&V3([n[0], n[1], n[2]])).scale_f(p.weight);
+        let nk = rg.mul_v(&V3([n[3], n[4], n[5]])).scale_f(p.weight);
+        let arm = ne.cross(xp);
+        for a in 0..self.nodes.len() {
+            add3(res, per * a + offset, ne.scale_f(p.dh[a]));
+            add3(
+                res,
+                per * a + offset + 3,
+                rot[a].tmul_v(&(arm.scale_f(p.h[a]) + nk.scale_f(p.dh[a]))),
+            );
+        }
+    }
+
+    /// Strain energy `Σ_g w ½ εᵀ C ε` of the i-state (from the history).
+    pub fn strain_energy(&self, ctx: &StepCtx) -> f64 {
+        let y = vec![0.0; self.unknowns.len()];
+        (0..self.points.len())
+            .map(|g| {
+                let ps = self.point_step::<f64>(ctx, g, &y);
+                let n = mat6_mul(&self.points[g].stiffness, &ps.eps_i);
+                0.5 * self.points[g].weight * (0..6).map(|k| n[k] * ps.eps_i[k]).sum::<f64>()
+            })
+            .sum()
+    }
+
+    /// The element's history at the end of a converged step (the local block `y`).
+    pub fn history_f(&self, ctx: &StepCtx, y: &[f64], out: &mut [f64]) {
+        for g in 0..self.points.len() {
+            let ps = self.point_step::<f64>(ctx, g, y);
+            let k = V3([ps.eps_f[3], ps.eps_f[4], ps.eps_f[5]]) + self.points[g].k0;
+            write_history(
+                &mut out[g * HISTORY_PER_POINT..],
+                &crate::rotation::orthonormalize(&ps.rg_f),
+                &k,
+            );
+        }
+    }
+
+    /// Gathers the element's local unknowns from the global vector.
+    pub fn gather(&self, y: &[f64]) -> Vec<f64> {
+        self.unknowns.iter().map(|&g| y[g]).collect()
+    }
+}
+
+impl Kernel for BeamElement {
+    fn unknowns(&self) -> &[usize] {
+        &self.unknowns
+    }
+
+    fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], res: &mut [T]) {
+        let h = ctx.h;
+        let nn = self.nodes.len();
+        let mut rot_i = [M3::<T>::identity(); MAX_NODES];
+        let mut rot_f = [M3::<T>::identity(); MAX_NODES];
+        let mut vel_j = [(V3::<T>::zero(), V3::<T>::zero()); MAX_NODES];
+        let mut vel_f = [(V3::<T>::zero(), V3::<T>::zero()); MAX_NODES];
+        if ctx.ed() {
+            for (a, &node) in self.nodes.iter().enumerate() {
+                let ri = M3::<T>::from_f64(&ctx.state.nodes[node].r);
+                let r = v3(y, 12 * a + 3);
+                rot_i[a] = ri;
+                rot_f[a] = ri.mul_m(&cayley(&r));
+                // Jump velocities are carried as h·V_j (system::layout).
+                vel_j[a] = (
+                    v3(y, 12 * a + 6).scale_f(1.0 / h),
+                    v3(y, 12 * a + 9).scale_f(1.0 / h),
+                );
+                vel_f[a] = (
+                    v3(y, 12 * a).scale_f(2.0 / h) - vel_j[a].0,
+                    r.scale_f(2.0 / h) - vel_j[a].1,
+                );
+            }
+        }
+        for g in 0..self.points.len() {
+            let c = &self.points[g].stiffness;
+            let ps = self.point_step(ctx, g, y);
+            if !ctx.ed() {
+                // EP: mean sectional forces through the exact discrete gradient.
+                let mut mean = [T::zero(); 6];
+                for k in 0..6 {
+                    mean[k] = (ps.eps_i[k] + ps.eps_f[k]) * 0.5;
+                }
+                self.add_discrete_forces(ctx, g, &ps, &mat6_mul(c, &mean), res);
+                continue;
+            }
+            // ED (ed-scheme-notes §3.2): ε_j = ε_i + h/6 (B_i V_j − B_f V_f),
+            // N̄ = C(ε_j + ε_f)/2, dN = C(ε_f − ε_j).
+            let bi_vj = self.strain_rate(g, &ps.rg_i, &ps.xp_i, &rot_i[..nn], &vel_j[..nn]);
+            let bf_vf = self.strain_rate(g, &ps.rg_f, &ps.xp_f, &rot_f[..nn], &vel_f[..nn]);
+            let mut mean = [T::zero(); 6];
+            let mut jump = [T::zero(); 6];
+            for k in 0..6 {
+                let eps_j = ps.eps_i[k] + (bi_vj[k] - bf_vf[k]) * (h / 6.0);
+                mean[k] = (eps_j + ps.eps_f[k]) * 0.5;
+                jump[k] = ps.eps_f[k] - eps_j;
+            }
+            let nbar = mat6_mul(c, &mean);
+            let dn = mat6_mul(c, &jump);
+            self.add_discrete_forces(ctx, g, &ps, &nbar, res);
+            // −P_f ∋ (1/12)(B_f − B_i)ᵀ dN ;  −P_j/6 ∋ −(1/12)(B_i + B_f)ᵀ dN.
+            let mut d12 = [T::zero(); 6];
+            let mut neg = [T::zero(); 6];
+            for k in 0..6 {
+                d12[k] = dn[k] / 12.0;
+                neg[k] = -d12[k];
+            }
+            self.add_rate_forces(ctx, g, &ps.rg_f, &ps.xp_f, &rot_f[..nn], &d12, 0, res);
+            self.add_rate_forces(ctx, g, &ps.rg_i, &ps.xp_i, &rot_i[..nn], &neg, 0, res);
+            self.add_rate_forces(ctx, g, &ps.rg_i, &ps.xp_i, &rot_i[..nn], &neg, 6, res);
+            self.add_rate_forces(ctx, g, &ps.rg_f, &ps.xp_f, &rot_f[..nn], &neg, 6, res);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::beam::section::{Section, Shorthand};
+    use crate::beam::shape::{gauss, lagrange, node_coordinates, reduced_points};
+    use crate::elements::fd_harness::tangent_error;
+    use crate::model::Scheme;
+    use crate::rotation::exp_map;
+    use crate::state::{NodeState, State};
+
+    const L: f64 = 2.0;
+
+    fn section() -> Mat6 {
+        let s = Shorthand {
+            ea: 1e4,
+            ga2: 5e3,
+            ga3: 4e3,
+            gj: 50.0,
+            ei2: 80.0,
+            ei3: 60.0,
+            m: 1.0,
+            i22: 0.01,
+            i33: 0.02,
+            ..Default::default()
+        };
+        Section::from_shorthand(&s).unwrap().stiffness
+    }
+
+    /// A deformed, stressed `n`-node element along x with generic nodal states and history.
+    fn fixture(n: usize, scheme: Scheme) -> (BeamElement, State, Layout) {
+        let layout = Layout::new(scheme, n, 0, 0);
+        let zs = node_coordinates(n);
+        let mut nodes = Vec::new();
+        for (a, &z) in zs.iter().enumerate() {
+            let s = 0.5 * (z + 1.0) * L;
+            let k = a as f64;
+            nodes.push(NodeState {
+                x: V3([s + 0.01 * k, 0.05 * (s * 1.3).sin(), -0.03 * s * s]),
+                r: exp_map(&V3([0.2 * s, -0.1 + 0.05 * k, 0.15 * s])),
+                v: V3([0.3, -0.2 * k, 0.1]),
+                w: V3([1.0, 0.5 * k, -0.7]),
+            });
+        }
+        let (xg, wg) = gauss(reduced_points(n));
+        let mut points = Vec::new();
+        let mut history = Vec::new();
+        for (&xi, &w) in xg.iter().zip(wg) {
+            let (h, dxi) = lagrange(n, xi);
+            let jac = L / 2.0;
+            let mut dh = [0.0; MAX_NODES];
+            for a in 0..n {
+                dh[a] = dxi[a] / jac;
+            }
+            points.push(GaussPoint {
+                weight: w * jac,
+                h,
+                dh,
+                stiffness: section(),
+                e0: V3([0.0; 3]),
+                k0: V3([0.01, 0.0, 0.02]),
+            });
+            let mut hist = [0.0; HISTORY_PER_POINT];
+            write_history(
+                &mut hist,
+                &exp_map(&V3([0.2 * xi + 0.1, -0.08, 0.15 * xi])),
+                &V3([0.05, -0.02, 0.03 * xi]),
+            );
+            history.extend_from_slice(&hist);
+        }
+        let state = State {
+            t: 0.0,
+            nodes,
+            coords: vec![],
+            coord_rates: vec![],
+            lambda: vec![],
+            history,
+        };
+        let el = BeamElement::new("e".into(), (0..n).collect(), points, 0, &layout);
+        (el, state, layout)
+    }
+
+    fn ctx<'a>(layout: Layout, state: &'a State) -> StepCtx<'a> {
+        StepCtx {
+            layout,
+            h: 0.01,
+            t_i: 0.0,
+            t_f: 0.01,
+            s: 1.0,
+            state,
+            gravity: V3([0.0; 3]),
+        }
+    }
+
+    #[test]
+    fn ep_internal_work_equals_the_strain_energy_change_exactly() {
+        for n in 2..=4 {
+            let (el, state, layout) = fixture(n, Scheme::Ep);
+            let c = ctx(layout, &state);
+            // Large increments: rotations of ~0.5 rad and displacements of 10 % of the length.
+            let y: Vec<f64> = (0..6 * n)
+                .map(|i| 0.2 * ((i as f64) * 1.7 + 0.3).sin())
+                .collect();
+            let mut res = vec![0.0; 6 * n];
+            el.residual(&c, &y, &mut res);
+            let work: f64 = y.iter().zip(&res).map(|(a, b)| a * b).sum();
+            let (mut ui, mut uf) = (0.0, 0.0);
+            for g in 0..el.points.len() {
+                let ps = el.point_step::<f64>(&c, g, &y);
+                let k = &el.points[g].stiffness;
+                let w = el.points[g].weight;
+                let ni = mat6_mul(k, &ps.eps_i);
+                let nf = mat6_mul(k, &ps.eps_f);
+                ui += 0.5 * w * (0..6).map(|j| ni[j] * ps.eps_i[j]).sum::<f64>();
+                uf += 0.5 * w * (0..6).map(|j| nf[j] * ps.eps_f[j]).sum::<f64>();
+            }
+            // Round-off relative to the energies involved (the identity is algebraic).
+            assert!(
+                (work - (uf - ui)).abs() < 1e-12 * uf.abs().max(ui.abs()),
+                "n={n}: {work} vs {}",
+                uf - ui
+            );
+            assert!(
+                (uf - ui).abs() > 1e-3 * ui,
+                "the increment must change the strain energy"
+            );
+        }
+    }
+
+    #[test]
+    fn rigid_increments_leave_the_strains_unchanged() {
+        for n in 2..=4 {
+            let (el, state, layout) = fixture(n, Scheme::Ep);
+            let c = ctx(layout, &state);
+            let rho = V3([0.7, -1.1, 0.4]);
+            let q = cayley(&rho);
+            let centre = V3([0.3, 0.2, -0.1]);
+            let mut y = vec![0.0; 6 * n];
+            for (a, nd) in state.nodes.iter().enumerate() {
+                let dx = q.mul_v(&(nd.x - centre)) - (nd.x - centre);
+                dx.write_to(&mut y[6 * a..]);
+                nd.r.tmul_v(&rho).write_to(&mut y[6 * a + 3..]);
+            }
+            for g in 0..el.points.len() {
+                let ps = el.point_step::<f64>(&c, g, &y);
+                for k in 0..6 {
+                    assert!(
+                        (ps.eps_f[k] - ps.eps_i[k]).abs() < 1e-13,
+                        "n={n} g={g} k={k}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn tangents_match_finite_differences_for_every_order_and_scheme() {
+        for scheme in [Scheme::Ep, Scheme::Ed] {
+            for n in 2..=4 {
+                let (el, state, layout) = fixture(n, scheme);
+                let c = ctx(layout, &state);
+                let y: Vec<f64> = (0..layout.n_unknowns())
+                    .map(|i| 0.01 * ((i as f64) * 0.9).cos())
+                    .collect();
+                let e = tangent_error(&el, &c, &y);
+                // Same bound as the other kernels: FD truncation and round-off relative to |J|.
+                assert!(e < 1e-7, "{scheme:?} n={n}: {e:e}");
+            }
+        }
+    }
+
+    #[test]
+    fn strain_rate_operator_matches_differences_of_the_strains() {
+        use crate::rotation::cayley_log;
+        for n in 2..=4 {
+            let (el, state, layout) = fixture(n, Scheme::Ep);
+            let c = ctx(layout, &state);
+            let vel: Vec<(V3<f64>, V3<f64>)> = (0..n)
+                .map(|a| {
+                    (
+                        V3([0.3, -0.5 * a as f64, 0.2]),
+                        V3([0.4, -0.3, 0.9 + 0.2 * a as f64]),
+                    )
+                })
+                .collect();
+            // Increments of the motion x + t v, R(t) = exp(t ω) R over a time t.
+            let incr = |t: f64| {
+                let mut y = vec![0.0; 6 * n];
+                for (a, nd) in state.nodes.iter().enumerate() {
+                    vel[a].0.scale_f(t).write_to(&mut y[6 * a..]);
+                    let q = exp_map(&vel[a].1.scale_f(t));
+                    nd.r.tmul_v(&cayley_log(&q).unwrap())
+                        .write_to(&mut y[6 * a + 3..]);
+                }
+                y
+            };
+            let rot: Vec<M3<f64>> = state.nodes.iter().map(|nd| nd.r).collect();
+            let material: Vec<(V3<f64>, V3<f64>)> = vel
+                .iter()
+                .zip(&rot)
+                .map(|((v, w), r)| (*v, r.tmul_v(w)))
+                .collect();
+            let e = 1e-6;
+            for g in 0..el.points.len() {
+                let p = el.point_step::<f64>(&c, g, &incr(e));
+                let m = el.point_step::<f64>(&c, g, &incr(-e));
+                let ps = el.point_step::<f64>(&c, g, &incr(0.0));
+                let rate = el.strain_rate(g, &ps.rg_i, &ps.xp_i, &rot, &material);
+                for k in 0..6 {
+                    let fd = (p.eps_f[k] - m.eps_f[k]) / (2.0 * e);
+                    // Central difference: truncation ~e² and round-off ~1e-16/e.
+                    assert!(
+                        (fd - rate[k]).abs() < 1e-8,
+                        "n={n} g={g} k={k}: {fd} vs {}",
+                        rate[k]
+                    );
+                }
+            }
+        }
+    }
+}
