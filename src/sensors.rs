@@ -17,6 +17,7 @@ enum Source {
     Reaction(usize),
     Drive(usize),
     Energy,
+    Momentum,
 }
 
 #[derive(Clone, Debug)]
@@ -163,6 +164,13 @@ impl Channels {
                     )
                 }
                 Sensor::Energy { .. } => add(&mut c, name, &ENERGY, &["J"], Source::Energy),
+                Sensor::Momentum { .. } => add(
+                    &mut c,
+                    name,
+                    &["px", "py", "pz", "Hx", "Hy", "Hz"],
+                    &["N*s", "N*s", "N*s", "N*m*s"],
+                    Source::Momentum,
+                ),
             }
         }
         c
@@ -213,6 +221,14 @@ impl Channels {
                         f64::NAN
                     } else {
                         totals.per_drive_work.get(*d).copied().unwrap_or(0.0)
+                    }
+                }
+                Source::Momentum => {
+                    let (p, h) = sys.momentum(state);
+                    if *k < 3 {
+                        p.0[*k]
+                    } else {
+                        h.0[k - 3]
                     }
                 }
                 Source::Energy => {

@@ -39,6 +39,7 @@ class Model:
             "gravity": _vec(gravity),
             "nodes": [],
             "bodies": [],
+            "beams": [],
             "joints": [],
             "loads": [],
             "sensors": [],
@@ -81,6 +82,48 @@ class Model:
                     "mass": float(mass),
                     "inertia": inertia,
                     "cm_offset": _vec(cm_offset) if cm_offset is not None else None,
+                }
+            )
+        )
+        return self
+
+    def beam(
+        self,
+        name,
+        start=None,
+        end=None,
+        *,
+        elements,
+        section,
+        order=3,
+        e2=None,
+        twist_rate=0.0,
+        start_node=None,
+        end_node=None,
+        velocity=None,
+        angular_velocity=None,
+    ):
+        """A straight geometrically exact beam from `start` to `end` (or shared `start_node` /
+        `end_node`), meshed with `elements` elements of `order` 1, 2 or 3. `section` is a dict
+        of ea, ga2, ga3, gj, ei2, ei3, m, i22, i33 (and optional i23, tension_center,
+        shear_center). Its nodes are named `<name>.0` ... `<name>.N`."""
+        self.data["beams"].append(
+            _drop_none(
+                {
+                    "name": name,
+                    "start": _vec(start) if start is not None else None,
+                    "end": _vec(end) if end is not None else None,
+                    "start_node": start_node,
+                    "end_node": end_node,
+                    "elements": int(elements),
+                    "order": int(order),
+                    "section": {
+                        k: (list(v) if hasattr(v, "__len__") else float(v)) for k, v in section.items()
+                    },
+                    "e2": _vec(e2) if e2 is not None else None,
+                    "twist_rate": float(twist_rate),
+                    "velocity": _vec(velocity) if velocity is not None else None,
+                    "angular_velocity": _vec(angular_velocity) if angular_velocity is not None else None,
                 }
             )
         )
@@ -171,7 +214,7 @@ class Model:
     def from_dict(cls, data: dict) -> Model:
         m = cls()
         m.data = copy.deepcopy(data)
-        for key in ("nodes", "bodies", "joints", "loads", "sensors"):
+        for key in ("nodes", "bodies", "beams", "joints", "loads", "sensors"):
             m.data.setdefault(key, [])
         m.data.setdefault("simulation", {})
         return m

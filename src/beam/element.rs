@@ -256,14 +256,56 @@ impl BeamElement {
         }
     }
 
-    /// Strain energy `Σ_g w ½ εᵀ C ε` of the i-state (from the history).
-    pub fn strain_energy(&self, ctx: &StepCtx) -> f64 {
-        let y = vec![0.0; self.unknowns.len()];
+    /// Strain energy `Σ_g w ½ εᵀ C ε` of a state (its nodes and this element's history).
+    pub fn strain_energy(&self, state: &crate::state::State) -> f64 {
         (0..self.points.len())
             .map(|g| {
-                let ps = self.point_step::<f64>(ctx, g, &y);
-                let n = mat6_mul(&self.points[g].stiffness, &ps.eps_i);
-                0.5 * self.points[g].weight * (0..6).map(|k| n[k] * ps.eps_i[k]).sum::<f64>()
+                let p = &self.points[g];
+                let (rg, k) = read_history(&state.history[self.history + g * HISTORY_PER_POINT..]);
+                let mut xp = V3::zero();
+                for (a, &node) in self.nodes.iter().enumerate() {
+                    xp += state.nodes[node].x.scale_f(p.dh[a]);
+                }
+                let e = rg.tmul_v(&xp) - V3([1.0, 0.0, 0.0]) - p.e0;
+                let k = k - p.k0;
+                let eps = [e.0[0], e.0[1], e.0[2], k.0[0], k.0[1], k.0[2]];
+                let n = mat6_mul(&p.stiffness, &eps);
+                0.5 * p.weight * (0..6).map(|i| n[i] * eps[i]).sum::<f64>()
+            })
+            .sum()
+    }
+
+    /// ED: `½ Σ_g w (ε_j − ε_i)ᵀ C (ε_j − ε_i)`, the strain-jump part of the numerical
+    /// dissipation of a converged step (`y` is the local block).
+    pub fn jump_dissipation(&self, ctx: &StepCtx, y: &[f64]) -> f64 {
+        let h = ctx.h;
+        let nn = self.nodes.len();
+        let mut rot_i = [M3::<f64>::identity(); MAX_NODES];
+        let mut rot_f = [M3::<f64>::identity(); MAX_NODES];
+        let mut vel_j = [(V3::zero(), V3::zero()); MAX_NODES];
+        let mut vel_f = [(V3::zero(), V3::zero()); MAX_NODES];
+        for (a, &node) in self.nodes.iter().enumerate() {
+            let ri = ctx.state.nodes[node].r;
+            let r = v3(y, 12 * a + 3);
+            rot_i[a] = ri;
+            rot_f[a] = ri.mul_m(&cayley(&r));
+            vel_j[a] = (
+                v3(y, 12 * a + 6).scale_f(1.0 / h),
+                v3(y, 12 * a + 9).scale_f(1.0 / h),
+            );
+            vel_f[a] = (
+                v3(y, 12 * a).scale_f(2.0 / h) - vel_j[a].0,
+                r.scale_f(2.0 / h) - vel_j[a].1,
+            );
+        }
+        (0..self.points.len())
+            .map(|g| {
+                let ps = self.point_step::<f64>(ctx, g, y);
+                let bi = self.strain_rate(g, &ps.rg_i, &ps.xp_i, &rot_i[..nn], &vel_j[..nn]);
+                let bf = self.strain_rate(g, &ps.rg_f, &ps.xp_f, &rot_f[..nn], &vel_f[..nn]);
+                let d: [f64; 6] = std::array::from_fn(|k| (bi[k] - bf[k]) * h / 6.0);
+                let n = mat6_mul(&self.points[g].stiffness, &d);
+                0.5 * self.points[g].weight * (0..6).map(|k| n[k] * d[k]).sum::<f64>()
             })
             .sum()
     }

@@ -55,6 +55,7 @@ impl std::fmt::Display for StepFailure {
 pub struct Integrator {
     pub matrix: NewtonMatrix,
     inertia_pos: Vec<Vec<usize>>,
+    beam_pos: Vec<Vec<usize>>,
     joint_pos: Vec<Vec<usize>>,
     spring_pos: Vec<Vec<usize>>,
     drive_pos: Vec<Vec<usize>>,
@@ -72,6 +73,7 @@ impl Integrator {
         use crate::elements::Kernel;
         let mut blocks: Vec<&[usize]> = Vec::new();
         blocks.extend(sys.inertias.iter().map(|k| k.unknowns()));
+        blocks.extend(sys.beams.iter().map(|k| k.unknowns()));
         blocks.extend(sys.joints.iter().map(|k| k.unknowns()));
         blocks.extend(sys.springs.iter().map(|k| k.unknowns()));
         blocks.extend(sys.drives.iter().map(|k| k.unknowns()));
@@ -82,9 +84,11 @@ impl Integrator {
         let drive_pos = pos.split_off(pos.len() - sys.drives.len());
         let spring_pos = pos.split_off(pos.len() - sys.springs.len());
         let joint_pos = pos.split_off(pos.len() - sys.joints.len());
+        let beam_pos = pos.split_off(pos.len() - sys.beams.len());
         Integrator {
             matrix,
             inertia_pos: pos,
+            beam_pos,
             joint_pos,
             spring_pos,
             drive_pos,
@@ -138,6 +142,7 @@ impl Integrator {
                 .collect();
             let mut all: Vec<Vec<bool>> = Vec::new();
             all.extend(sys.inertias.iter().map(|k| block_structure(k, &ctx, &y)));
+            all.extend(sys.beams.iter().map(|k| block_structure(k, &ctx, &y)));
             all.extend(sys.joints.iter().map(|k| block_structure(k, &ctx, &y)));
             all.extend(sys.springs.iter().map(|k| block_structure(k, &ctx, &y)));
             all.extend(sys.drives.iter().map(|k| block_structure(k, &ctx, &y)));
@@ -222,6 +227,7 @@ impl Integrator {
             };
         }
         run!(sys.inertias, self.inertia_pos);
+        run!(sys.beams, self.beam_pos);
         run!(sys.joints, self.joint_pos);
         run!(sys.springs, self.spring_pos);
         run!(sys.drives, self.drive_pos);
@@ -338,6 +344,16 @@ impl Integrator {
         Ok(self.commit(sys, &ctx, report))
     }
 
+    /// Element history at the end of the converged step.
+    fn history_f(&self, sys: &System, ctx: &StepCtx) -> Vec<f64> {
+        let mut h = ctx.state.history.clone();
+        for b in &sys.beams {
+            let local = b.gather(&self.y);
+            b.history_f(ctx, &local, &mut h[b.history..b.history + b.history_len()]);
+        }
+        h
+    }
+
     /// Builds the f-state from the converged unknowns and fills the step report.
     fn commit(
         &mut self,
@@ -409,6 +425,9 @@ impl Integrator {
             for sp in &sys.springs {
                 d += 0.5 * sp.stiffness * sp.jump(ctx, y).powi(2);
             }
+            for b in &sys.beams {
+                d += b.jump_dissipation(ctx, &b.gather(y));
+            }
             report.numerical_dissipation = d;
         }
         report.constraint_work = sys.joints.iter().map(|j| j.step_work(ctx, y)).sum();
@@ -439,8 +458,7 @@ impl Integrator {
             coords,
             coord_rates: rates,
             lambda,
-            // No element carries history yet (beams will update theirs here).
-            history: st.history.clone(),
+            history: self.history_f(sys, ctx),
         };
         (state, report)
     }

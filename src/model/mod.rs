@@ -34,6 +34,8 @@ pub struct Model {
     #[serde(default)]
     pub bodies: Vec<RigidBody>,
     #[serde(default)]
+    pub beams: Vec<Beam>,
+    #[serde(default)]
     pub joints: Vec<Joint>,
     #[serde(default)]
     pub loads: Vec<Load>,
@@ -89,6 +91,106 @@ pub struct RigidBody {
     /// Position of the centre of mass relative to the node, m, in the node's triad.
     #[serde(default)]
     pub cm_offset: Vec3,
+}
+
+/// A straight geometrically exact beam meshed from `start` to `end`. Its nodes are named
+/// `<beam>.0` … `<beam>.N` (N = elements × order) unless `start_node`/`end_node` name existing
+/// nodes to share (with rigid bodies, joints or other beams).
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct Beam {
+    pub name: String,
+    /// Start point, m (or give `start_node`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start: Option<Vec3>,
+    /// End point, m (or give `end_node`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub end: Option<Vec3>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_node: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub end_node: Option<String>,
+    /// Number of elements.
+    pub elements: usize,
+    /// Element order: 1 linear (2 nodes), 2 quadratic (3 nodes), 3 cubic (4 nodes).
+    #[serde(default = "default_order")]
+    pub order: usize,
+    pub section: SectionSpec,
+    /// Direction of the section's axis 2 at the start (projected normal to the beam axis);
+    /// defaults to a direction normal to the axis.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub e2: Option<Vec3>,
+    /// Constant pre-twist rate k₁, rad/m: the section frame turns about the axis along the span.
+    #[serde(default)]
+    pub twist_rate: f64,
+    /// Initial rigid-body motion of the beam's own nodes: velocity of the start point (m/s) and
+    /// angular velocity (rad/s), inertial frame. Shared end nodes keep their own.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub velocity: Option<Vec3>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angular_velocity: Option<Vec3>,
+}
+
+fn default_order() -> usize {
+    3
+}
+
+impl Beam {
+    /// Nodes along the beam: elements × order + 1.
+    pub fn node_count(&self) -> usize {
+        self.elements * self.order + 1
+    }
+    /// Name of the k-th node along the beam (a shared end node keeps its own name).
+    pub fn node_name(&self, k: usize) -> String {
+        let last = self.node_count() - 1;
+        match (k, &self.start_node, &self.end_node) {
+            (0, Some(n), _) => n.clone(),
+            (k, _, Some(n)) if k == last => n.clone(),
+            _ => format!("{}.{k}", self.name),
+        }
+    }
+}
+
+/// Sectional properties (see `beam::section`): stiffnesses, mass per length, mass moments of
+/// inertia per length about the centre of mass, and the centres' offsets in the section.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug, Default)]
+#[serde(deny_unknown_fields)]
+pub struct SectionSpec {
+    pub ea: f64,
+    pub ga2: f64,
+    pub ga3: f64,
+    pub gj: f64,
+    pub ei2: f64,
+    pub ei3: f64,
+    pub m: f64,
+    pub i22: f64,
+    pub i33: f64,
+    #[serde(default)]
+    pub i23: f64,
+    #[serde(default)]
+    pub tension_center: [f64; 2],
+    #[serde(default)]
+    pub shear_center: [f64; 2],
+}
+
+impl SectionSpec {
+    pub fn shorthand(&self) -> crate::beam::section::Shorthand {
+        crate::beam::section::Shorthand {
+            ea: self.ea,
+            ga2: self.ga2,
+            ga3: self.ga3,
+            gj: self.gj,
+            ei2: self.ei2,
+            ei3: self.ei3,
+            m: self.m,
+            i22: self.i22,
+            i33: self.i33,
+            i23: self.i23,
+            cm_offset: [0.0; 2],
+            tension_center: self.tension_center,
+            shear_center: self.shear_center,
+        }
+    }
 }
 
 #[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
@@ -283,6 +385,9 @@ pub enum Sensor {
     DriveForce { name: String, joint: String },
     /// `.kinetic .potential .total .drive_work .external_work .damper_work .numerical_dissipation`, J.
     Energy { name: String },
+    /// Total linear momentum `.px .py .pz` (N·s) and angular momentum about the origin
+    /// `.Hx .Hy .Hz` (N·m·s), inertial frame.
+    Momentum { name: String },
 }
 
 impl Sensor {
@@ -295,7 +400,8 @@ impl Sensor {
             | Sensor::JointCoordinate { name, .. }
             | Sensor::JointReaction { name, .. }
             | Sensor::DriveForce { name, .. }
-            | Sensor::Energy { name } => name,
+            | Sensor::Energy { name }
+            | Sensor::Momentum { name } => name,
         }
     }
 }

@@ -139,7 +139,13 @@ impl Model {
                 .bodies
                 .iter()
                 .enumerate()
-                .map(|(i, n)| (format!("bodies[{i}]"), n.name.as_str()));
+                .map(|(i, n)| (format!("bodies[{i}]"), n.name.as_str()))
+                .chain(
+                    self.beams
+                        .iter()
+                        .enumerate()
+                        .map(|(i, n)| (format!("beams[{i}]"), n.name.as_str())),
+                );
             let j = self
                 .joints
                 .iter()
@@ -161,12 +167,22 @@ impl Model {
             name(&mut c, path, n);
         }
 
-        let node_names: HashMap<&str, usize> = self
+        let model_nodes: HashMap<String, usize> = self
             .nodes
             .iter()
             .enumerate()
-            .map(|(i, n)| (n.name.as_str(), i))
+            .map(|(i, n)| (n.name.clone(), i))
             .collect();
+        // Beams add their nodes `<beam>.k` (shared end nodes keep their own names).
+        let mut node_names = model_nodes.clone();
+        for b in &self.beams {
+            if (1..=3).contains(&b.order) && b.elements >= 1 {
+                for k in 0..b.node_count() {
+                    let next = node_names.len();
+                    node_names.entry(b.node_name(k)).or_insert(next);
+                }
+            }
+        }
         let node_ref = |c: &mut Checker, path: String, n: &str, allow_ground: bool| {
             if n == GROUND {
                 if !allow_ground {
@@ -213,6 +229,60 @@ impl Model {
             }
             if let Some(v) = &o.rotation_vector {
                 c.vec3(format!("{p}.orientation.rotation_vector"), v);
+            }
+        }
+
+        for (i, b) in self.beams.iter().enumerate() {
+            let p = format!("beams[{i}]");
+            let name = &b.name;
+            for (field, point, node) in [
+                ("start", &b.start, &b.start_node),
+                ("end", &b.end, &b.end_node),
+            ] {
+                match (point, node) {
+                    (Some(_), Some(_)) | (None, None) => c.err(
+                        format!("{p}.{field}"),
+                        format!("beam `{name}`: give exactly one of `{field}` and `{field}_node`"),
+                    ),
+                    (Some(v), None) => c.vec3(format!("{p}.{field}"), v),
+                    (None, Some(n)) => {
+                        if !model_nodes.contains_key(n.as_str()) {
+                            c.err(
+                                format!("{p}.{field}_node"),
+                                format!("refers to node `{n}`, which is not defined in `nodes`"),
+                            );
+                        }
+                    }
+                }
+            }
+            if b.elements == 0 {
+                c.err(
+                    format!("{p}.elements"),
+                    format!("beam `{name}`: needs at least one element"),
+                );
+            }
+            if !(1..=3).contains(&b.order) {
+                c.err(
+                    format!("{p}.order"),
+                    format!("beam `{name}`: order must be 1 (linear), 2 (quadratic) or 3 (cubic), got {}", b.order),
+                );
+            }
+            if let Err(e) = crate::beam::section::Section::from_shorthand(&b.section.shorthand()) {
+                c.err(format!("{p}.section"), format!("beam `{name}`: {e}"));
+            }
+            if let Some(e2) = &b.e2 {
+                c.vec3(format!("{p}.e2"), e2);
+            }
+            for (field, v) in [
+                ("velocity", &b.velocity),
+                ("angular_velocity", &b.angular_velocity),
+            ] {
+                if let Some(v) = v {
+                    c.vec3(format!("{p}.{field}"), v);
+                }
+            }
+            if !b.twist_rate.is_finite() {
+                c.err(format!("{p}.twist_rate"), "must be a finite number");
             }
         }
 
@@ -340,7 +410,7 @@ impl Model {
                         },
                     }
                 }
-                Sensor::Energy { .. } => {}
+                Sensor::Energy { .. } | Sensor::Momentum { .. } => {}
             }
         }
 

@@ -1,9 +1,11 @@
 //! Compiling a [`Model`] into a [`System`]: node numbering (including internal centre-of-mass
 //! nodes), joint attachments in each node's triad, coordinates, constraint rows and kernels.
 
+mod beam_mesh;
 pub mod layout;
 pub mod sparse;
 
+use crate::beam::element::BeamElement;
 use crate::elements::coordinate::{CoordinateDrive, CoordinateSpring};
 use crate::elements::inertia::NodeInertia;
 use crate::elements::loads::{LoadKind, PointLoad};
@@ -36,6 +38,7 @@ pub struct System {
     /// Per constraint row: the owning item's name and its local row.
     pub row_names: Vec<(String, usize)>,
     pub inertias: Vec<NodeInertia>,
+    pub beams: Vec<BeamElement>,
     pub joints: Vec<JointKernel>,
     pub joint_info: Vec<JointInfo>,
     pub springs: Vec<CoordinateSpring>,
@@ -101,13 +104,25 @@ impl System {
             });
             velocity_given.push(n.velocity.is_some() || n.angular_velocity.is_some());
         }
+        // Beams: their nodes (shared end nodes are reused), lumped inertia, and elements.
+        let mut mass = vec![0.0; nodes.len()];
+        let mut inertia = vec![M3::<f64>::zero(); nodes.len()];
+        let mut beam_meshes = Vec::new();
+        for b in &model.beams {
+            beam_meshes.push(beam_mesh::mesh(
+                b,
+                &mut node_names,
+                &mut nodes,
+                &mut velocity_given,
+                &mut mass,
+                &mut inertia,
+            ));
+        }
         let index: HashMap<String, usize> = node_names
             .iter()
             .enumerate()
             .map(|(i, n)| (n.clone(), i))
             .collect();
-        let mut mass = vec![0.0; nodes.len()];
-        let mut inertia = vec![M3::<f64>::zero(); nodes.len()];
         // (body name, carrier node, cm node, offset) for bodies needing an internal clamp.
         let mut cm_links: Vec<(String, usize, usize, V3<f64>)> = Vec::new();
         for b in &model.bodies {
@@ -150,6 +165,20 @@ impl System {
             };
         }
         let layout = Layout::new(scheme, nodes.len(), n_coords, n_rows);
+
+        // Beam elements, their history laid out one after the other.
+        let mut history = Vec::new();
+        let mut beams = Vec::new();
+        for m in beam_meshes.into_iter().flatten() {
+            beams.push(BeamElement::new(
+                m.name,
+                m.nodes,
+                m.points,
+                history.len(),
+                &layout,
+            ));
+            history.extend_from_slice(&m.history);
+        }
 
         // A node with no mass that nothing refers to has an undetermined motion.
         for (i, n) in model.nodes.iter().enumerate() {
@@ -383,7 +412,7 @@ impl System {
             coords: coords0,
             coord_rates: vec![0.0; n_c],
             lambda: vec![0.0; n_rows],
-            history: vec![],
+            history,
         };
         Ok(System {
             name: model.name.clone(),
@@ -392,6 +421,7 @@ impl System {
             coord_names,
             row_names: names_sorted,
             inertias,
+            beams,
             joints,
             joint_info,
             springs,
@@ -424,6 +454,19 @@ impl System {
             .sum()
     }
 
+    /// Linear momentum and angular momentum about the origin, `Σ m v` and `Σ x × m v + R J W`.
+    pub fn momentum(&self, s: &State) -> (V3<f64>, V3<f64>) {
+        let mut p = V3::zero();
+        let mut h = V3::zero();
+        for k in &self.inertias {
+            let n = &s.nodes[k.node];
+            let mv = n.v.scale_f(k.mass);
+            p += mv;
+            h += n.x.cross(&mv) + n.r.mul_v(&k.inertia.mul_v(&n.w));
+        }
+        (p, h)
+    }
+
     /// Potential energy of gravity and springs.
     pub fn potential_energy(&self, s: &State) -> f64 {
         let grav: f64 = self
@@ -436,7 +479,8 @@ impl System {
             .iter()
             .map(|sp| 0.5 * sp.stiffness * (s.coords[sp.coord] - sp.rest).powi(2))
             .sum();
-        grav + spr
+        let strain: f64 = self.beams.iter().map(|b| b.strain_energy(s)).sum();
+        grav + spr + strain
     }
 
     /// Human-readable owner of a global unknown/row, for diagnostics.
