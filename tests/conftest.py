@@ -1,6 +1,7 @@
-import flexdyn as fd
 import numpy as np
 import pytest
+
+import flexdyn as fd
 
 
 def angular_momentum(res, bodies):

@@ -1,9 +1,10 @@
 """Validation against closed-form solutions: small-amplitude pendulum period and a driven
 four-bar linkage (kinematics and driving torque from inverse dynamics)."""
 
-import flexdyn as fd
 import numpy as np
 import pytest
+
+import flexdyn as fd
 
 G = 9.81
 

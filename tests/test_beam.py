@@ -6,7 +6,17 @@ import pytest
 import flexdyn as fd
 
 # A soft beam so that the motion is genuinely flexible.
-SECTION = dict(ea=1e4, ga2=5e3, ga3=5e3, gj=5.0, ei2=8.0, ei3=5.0, m=1.0, i22=0.01, i33=0.01)
+SECTION = {
+    "ea": 1e4,
+    "ga2": 5e3,
+    "ga3": 5e3,
+    "gj": 5.0,
+    "ei2": 8.0,
+    "ei3": 5.0,
+    "m": 1.0,
+    "i22": 0.01,
+    "i33": 0.01,
+}
 
 
 def free_beam(scheme, dt, t_end, order=2):
@@ -58,7 +68,7 @@ def test_ed_energy_never_increases_and_the_identity_closes(order):
 
 def test_beam_errors_name_the_beam():
     m = fd.Model()
-    m.beam("blade", [0, 0, 0], [1, 0, 0], elements=2, order=4, section=dict(SECTION, ei2=-1.0))
+    m.beam("blade", [0, 0, 0], [1, 0, 0], elements=2, order=4, section={**SECTION, "ei2": -1.0})
     with pytest.raises(fd.ModelError) as e:
         m.validate()
     msg = str(e.value)

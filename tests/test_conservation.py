@@ -1,8 +1,10 @@
 """Invariants of the EP and ED schemes on conservative rigid-body systems (issue 2)."""
 
-import flexdyn as fd
 import numpy as np
 import pytest
+
+import flexdyn as fd
+
 from conftest import angular_momentum, track
 
 J_FREE = np.diag([1.0, 2.0, 3.0])

@@ -1,8 +1,10 @@
 """ED annihilates unresolved high frequencies but does not damp slow rigid rotation
 ("locking in time", ed-scheme-notes §3.5)."""
 
-import flexdyn as fd
 import numpy as np
+
+import flexdyn as fd
+
 from conftest import angular_momentum, track
 
 I_HUB, M_TIP, I_TIP = 2.0, 1.0, 0.1

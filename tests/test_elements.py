@@ -1,9 +1,11 @@
 """Rigid bodies with offset centres of mass, clamps, point loads, dampers and joint reactions,
 each against an exact or independent result."""
 
-import flexdyn as fd
 import numpy as np
 import pytest
+
+import flexdyn as fd
+
 from conftest import track
 
 

@@ -2,9 +2,10 @@
 
 from pathlib import Path
 
-import flexdyn as fd
 import numpy as np
 import pytest
+
+import flexdyn as fd
 
 EXAMPLES = sorted((Path(__file__).parent.parent / "examples").glob("*.yaml"))
 

@@ -4,8 +4,9 @@ import json
 import subprocess
 import sys
 
-import flexdyn as fd
 import pytest
+
+import flexdyn as fd
 
 BASE = """
 gravity: [0, 0, -9.81]

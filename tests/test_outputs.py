@@ -4,11 +4,13 @@ import json
 import subprocess
 import sys
 
-import flexdyn as fd
-import flexdyn.results
 import numpy as np
 import pytest
 import xarray as xr
+
+import flexdyn as fd
+import flexdyn.results
+
 from test_conservation import double_pendulum
 
 
