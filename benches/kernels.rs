@@ -55,5 +55,47 @@ fn newton_iteration(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, rotations, newton_iteration);
+/// One cubic beam element's residual and exact tangent (EP and ED), inside the beam pendulum.
+fn beam_element(c: &mut Criterion) {
+    use flexdyn::elements::{eval_kernel, Kernel};
+    let yaml = r#"
+gravity: [0, -9.81, 0]
+nodes:
+  - {name: root, position: [0, 0, 0]}
+  - {name: tip, position: [2.4, 0, 0]}
+bodies:
+  - {name: tip_body, node: tip, mass: 40, inertia: [0.45, 0.225, 0.225]}
+beams:
+  - name: beam
+    start_node: root
+    end_node: tip
+    elements: 12
+    order: 3
+    e2: [0, 1, 0]
+    section: {ea: 44.0e6, ga2: 2.8e6, ga3: 14.0e6, gj: 28.0e3, ei2: 300.0e3, ei3: 23.0e3, m: 1.6, i22: 1.0e-3, i33: 11.0e-3}
+joints:
+  - {type: spherical, name: pin, node1: ground, node2: root, position: [0, 0, 0]}
+simulation: {dt: 0.001}
+"#;
+    let model = from_yaml_str(yaml).unwrap();
+    for scheme in [Scheme::Ep, Scheme::Ed] {
+        let mut sim = Simulation::with_scheme(&model, scheme).unwrap();
+        sim.advance_to(0.05).unwrap();
+        let h = sim.settings.dt;
+        let ctx = sim.ctx(h);
+        let el = &sim.system.beams[5];
+        let n = sim.system.layout.n_unknowns();
+        let y: Vec<f64> = (0..n).map(|i| 1e-4 * (i as f64).sin()).collect();
+        let m = el.unknowns().len();
+        let pos: Vec<usize> = (0..m * m).collect();
+        let mut vals = vec![0.0; m * m];
+        let mut res = vec![0.0; n];
+        let name = format!("beam_element/cubic_{scheme:?}").to_lowercase();
+        c.bench_function(&name, |b| {
+            b.iter(|| eval_kernel(el, &ctx, &y, &mut res, Some((&mut vals, &pos))))
+        });
+    }
+}
+
+criterion_group!(benches, rotations, newton_iteration, beam_element);
 criterion_main!(benches);
