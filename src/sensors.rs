@@ -18,6 +18,8 @@ enum Source {
     Drive(usize),
     Energy,
     Momentum,
+    /// Beam station: element index and parent coordinate ξ in it.
+    BeamSection(usize, f64),
 }
 
 #[derive(Clone, Debug)]
@@ -164,6 +166,29 @@ impl Channels {
                     )
                 }
                 Sensor::Energy { .. } => add(&mut c, name, &ENERGY, &["J"], Source::Energy),
+                Sensor::BeamSection { beam, eta, .. } => {
+                    let info = sys
+                        .beam_info
+                        .iter()
+                        .find(|b| &b.name == beam)
+                        .expect("validated");
+                    let x = eta * info.count as f64;
+                    let e = (x.floor() as usize).min(info.count - 1);
+                    let xi = 2.0 * (x - e as f64) - 1.0;
+                    add(
+                        &mut c,
+                        name,
+                        &[
+                            "F1", "F2", "F3", "M1", "M2", "M3", "e1", "g2", "g3", "k1", "k2", "k3",
+                            "x", "y", "z",
+                        ],
+                        &[
+                            "N", "N", "N", "N*m", "N*m", "N*m", "1", "1", "1", "1/m", "1/m", "1/m",
+                            "m",
+                        ],
+                        Source::BeamSection(info.first + e, xi),
+                    )
+                }
                 Sensor::Momentum { .. } => add(
                     &mut c,
                     name,
@@ -223,6 +248,7 @@ impl Channels {
                         totals.per_drive_work.get(*d).copied().unwrap_or(0.0)
                     }
                 }
+                Source::BeamSection(e, xi) => beam_station(&sys.beams[*e], state, *xi, *k),
                 Source::Momentum => {
                     let (p, h) = sys.momentum(state);
                     if *k < 3 {
@@ -258,4 +284,37 @@ impl Channels {
             out.push(v);
         }
     }
+}
+
+/// Component `k` of a beam station's channels (forces/moments, strains/curvatures, position)
+/// at parent coordinate `xi`: Gauss-point values interpolated by the polynomial through the
+/// element's Gauss points (constant for one point).
+fn beam_station(el: &crate::beam::element::BeamElement, state: &State, xi: f64, k: usize) -> f64 {
+    if k >= 12 {
+        let (h, _) = crate::beam::shape::lagrange(el.nodes.len(), xi);
+        return el
+            .nodes
+            .iter()
+            .enumerate()
+            .map(|(a, &n)| h[a] * state.nodes[n].x.0[k - 12])
+            .sum();
+    }
+    let values = el.gauss_values(state);
+    let xs: Vec<f64> = el.points.iter().map(|p| p.xi).collect();
+    let pick = |g: usize| {
+        if k < 6 {
+            values[g].1[k]
+        } else {
+            values[g].0[k - 6]
+        }
+    };
+    (0..xs.len())
+        .map(|g| {
+            let w: f64 = (0..xs.len())
+                .filter(|&o| o != g)
+                .map(|o| (xi - xs[o]) / (xs[g] - xs[o]))
+                .product();
+            w * pick(g)
+        })
+        .sum()
 }

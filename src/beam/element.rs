@@ -24,6 +24,8 @@ pub const HISTORY_PER_POINT: usize = 12;
 
 #[derive(Clone, Debug)]
 pub struct GaussPoint {
+    /// Parent coordinate ξ of the point.
+    pub xi: f64,
     /// Quadrature weight times ds/dξ: integrates over arc length.
     pub weight: f64,
     /// Shape functions and their arc-length derivatives at the point.
@@ -258,9 +260,19 @@ impl BeamElement {
 
     /// Strain energy `Σ_g w ½ εᵀ C ε` of a state (its nodes and this element's history).
     pub fn strain_energy(&self, state: &crate::state::State) -> f64 {
-        (0..self.points.len())
-            .map(|g| {
-                let p = &self.points[g];
+        self.gauss_values(state)
+            .iter()
+            .zip(&self.points)
+            .map(|((eps, n), p)| 0.5 * p.weight * (0..6).map(|i| n[i] * eps[i]).sum::<f64>())
+            .sum()
+    }
+
+    /// Strains `[e*, κ]` and sectional forces/moments `C ε` (section frame) at each Gauss point.
+    pub fn gauss_values(&self, state: &crate::state::State) -> Vec<([f64; 6], [f64; 6])> {
+        self.points
+            .iter()
+            .enumerate()
+            .map(|(g, p)| {
                 let (rg, k) = read_history(&state.history[self.history + g * HISTORY_PER_POINT..]);
                 let mut xp = V3::zero();
                 for (a, &node) in self.nodes.iter().enumerate() {
@@ -269,10 +281,9 @@ impl BeamElement {
                 let e = rg.tmul_v(&xp) - V3([1.0, 0.0, 0.0]) - p.e0;
                 let k = k - p.k0;
                 let eps = [e.0[0], e.0[1], e.0[2], k.0[0], k.0[1], k.0[2]];
-                let n = mat6_mul(&p.stiffness, &eps);
-                0.5 * p.weight * (0..6).map(|i| n[i] * eps[i]).sum::<f64>()
+                (eps, mat6_mul(&p.stiffness, &eps))
             })
-            .sum()
+            .collect()
     }
 
     /// ED: `½ Σ_g w (ε_j − ε_i)ᵀ C (ε_j − ε_i)`, the strain-jump part of the numerical
@@ -453,6 +464,7 @@ mod tests {
                 dh[a] = dxi[a] / jac;
             }
             points.push(GaussPoint {
+                xi,
                 weight: w * jac,
                 h,
                 dh,

@@ -385,6 +385,15 @@ pub enum Sensor {
     DriveForce { name: String, joint: String },
     /// `.kinetic .potential .total .drive_work .external_work .damper_work .numerical_dissipation`, J.
     Energy { name: String },
+    /// At a station of a beam (`eta`: fraction of its length from the start): sectional forces
+    /// `.F1 .F2 .F3` (N) and moments `.M1 .M2 .M3` (N·m) in the deformed section frame (axis 1
+    /// along the beam), strains `.e1 .g2 .g3` and curvatures `.k1 .k2 .k3` (1/m) relative to the
+    /// reference, and the position `.x .y .z` (m). Recovered from the Gauss points.
+    BeamSection {
+        name: String,
+        beam: String,
+        eta: f64,
+    },
     /// Total linear momentum `.px .py .pz` (N·s) and angular momentum about the origin
     /// `.Hx .Hy .Hz` (N·m·s), inertial frame.
     Momentum { name: String },
@@ -400,6 +409,7 @@ impl Sensor {
             | Sensor::JointCoordinate { name, .. }
             | Sensor::JointReaction { name, .. }
             | Sensor::DriveForce { name, .. }
+            | Sensor::BeamSection { name, .. }
             | Sensor::Energy { name }
             | Sensor::Momentum { name } => name,
         }

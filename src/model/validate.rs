@@ -411,6 +411,14 @@ impl Model {
                     }
                 }
                 Sensor::Energy { .. } | Sensor::Momentum { .. } => {}
+                Sensor::BeamSection { beam, eta, .. } => {
+                    if !self.beams.iter().any(|b| &b.name == beam) {
+                        c.err(format!("{p}.beam"), format!("refers to beam `{beam}`, which is not defined in `beams`"));
+                    }
+                    if !(eta.is_finite() && (0.0..=1.0).contains(eta)) {
+                        c.err(format!("{p}.eta"), format!("must be a fraction of the beam length between 0 and 1 (got {eta})"));
+                    }
+                }
             }
         }
 

@@ -141,6 +141,7 @@ pub fn mesh(
             write_history(&mut hist, &rg, &k0);
             history.extend_from_slice(&hist);
             points.push(GaussPoint {
+                xi,
                 weight: wq * jac,
                 h,
                 dh,

@@ -19,6 +19,14 @@ use crate::vec3::{M3, V3};
 use layout::Layout;
 use std::collections::HashMap;
 
+/// The elements a model beam became: `beams[first .. first + count]`, in order along it.
+#[derive(Clone, Debug)]
+pub struct BeamInfo {
+    pub name: String,
+    pub first: usize,
+    pub count: usize,
+}
+
 /// What a model joint became: its kernel and, for a revolute, its coordinate, drive and spring.
 #[derive(Clone, Debug)]
 pub struct JointInfo {
@@ -39,6 +47,7 @@ pub struct System {
     pub row_names: Vec<(String, usize)>,
     pub inertias: Vec<NodeInertia>,
     pub beams: Vec<BeamElement>,
+    pub beam_info: Vec<BeamInfo>,
     pub joints: Vec<JointKernel>,
     pub joint_info: Vec<JointInfo>,
     pub springs: Vec<CoordinateSpring>,
@@ -169,6 +178,20 @@ impl System {
         // Beam elements, their history laid out one after the other.
         let mut history = Vec::new();
         let mut beams = Vec::new();
+        let beam_info: Vec<BeamInfo> = model
+            .beams
+            .iter()
+            .zip(&beam_meshes)
+            .scan(0, |first, (b, meshed)| {
+                let info = BeamInfo {
+                    name: b.name.clone(),
+                    first: *first,
+                    count: meshed.len(),
+                };
+                *first += meshed.len();
+                Some(info)
+            })
+            .collect();
         for m in beam_meshes.into_iter().flatten() {
             beams.push(BeamElement::new(
                 m.name,
@@ -422,6 +445,7 @@ impl System {
             row_names: names_sorted,
             inertias,
             beams,
+            beam_info,
             joints,
             joint_info,
             springs,
