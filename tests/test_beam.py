@@ -212,3 +212,39 @@ def test_spinning_blade_axial_force_converges_to_the_centrifugal_value():
     assert errors[0] / errors[1] > 3.0
     assert errors[1] / errors[2] > 2.5
     assert errors[2] < 3e-3
+
+
+@pytest.mark.parametrize("order,elements", [(2, 4), (3, 3)])
+def test_tip_loaded_cantilever_bending_moment(order, elements):
+    # Linear range: M3(s) = P (L − s), F2 = P, tip deflection P L³/(3 EI) (+ P L/GA). The load
+    # is ramped as tanh²(t/τ) with τ = 0.5 s, seven first-mode periods, so the response is
+    # quasi-static; the residual first-mode vibration is ~1.5e-3 of the load.
+    length, ei, p = 2.0, 1e4, 10.0
+    sec = {
+        "ea": 1e8,
+        "ga2": 1e8,
+        "ga3": 1e8,
+        "gj": 1e4,
+        "ei2": ei,
+        "ei3": ei,
+        "m": 1.0,
+        "i22": 1e-4,
+        "i33": 1e-4,
+    }
+    m = fd.Model("cantilever")
+    n = elements * order
+    m.beam("b", [0, 0, 0], [length, 0, 0], elements=elements, order=order, section=sec, e2=[0, 1, 0])
+    m.clamp("root", "ground", "b.0")
+    m.force("tip_load", f"b.{n}", [0, p, 0], scale="tanh(t/0.5)^2")
+    stations = [0.0, 0.25, 0.5, 0.75]
+    for eta in stations:
+        m.sensor("beam_section", f"s{int(eta * 100)}", beam="b", eta=eta)
+    m.sensor("node_displacement", "tip", node=f"b.{n}")
+    s = fd.simulate(m, scheme="ed", dt=2e-3, t_end=4.0).isel(time=-1)
+    for eta in stations:
+        assert float(s[f"s{int(eta * 100)}.M3"]) == pytest.approx(
+            p * length * (1 - eta), abs=3e-3 * p * length
+        )
+        assert float(s[f"s{int(eta * 100)}.F2"]) == pytest.approx(p, rel=3e-3)
+    deflection = p * length**3 / (3 * ei) + p * length / 1e8
+    assert float(s["tip.y"]) == pytest.approx(deflection, rel=2e-3)

@@ -303,8 +303,13 @@ impl Integrator {
                 )));
             }
             if it == 0 {
-                // Force scale of the step: the predictor's imbalance, or the model's weight.
-                f_ref = rn.max(sys.mass_ref * sys.gravity.norm()).max(1e-300);
+                // Force scale of the step: the predictor's imbalance, the model's weight, or
+                // the force of a 1e-8 strain of its stiffest section (below which sectional
+                // forces are round-off: N = EA·e with e computed to ~1e-16).
+                f_ref = rn
+                    .max(sys.mass_ref * sys.gravity.norm())
+                    .max(sys.force_ref)
+                    .max(1e-300);
             }
             let k = report.residuals.len();
             let stagnated = k >= 3 && rn > 0.5 * report.residuals[k - 2] && rn < 1e-6 * f_ref;

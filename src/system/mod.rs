@@ -59,6 +59,8 @@ pub struct System {
     pub mass_ref: f64,
     /// Characteristic length (extent of the initial configuration), for tolerances.
     pub length_ref: f64,
+    /// Force of a 1e-8 strain of the stiffest section: the scale of round-off in elastic forces.
+    pub force_ref: f64,
     /// Per node: whether the model gave its initial velocity (else zero, to be completed).
     pub velocity_given: Vec<bool>,
 }
@@ -428,6 +430,16 @@ impl System {
             masses.iter().sum::<f64>() / masses.len() as f64
         };
         let length_ref = nodes.iter().map(|n| n.x.max_abs()).fold(1.0f64, f64::max);
+        let force_ref = 1e-8
+            * beams
+                .iter()
+                .flat_map(|b| b.points.iter())
+                .map(|p| {
+                    p.stiffness[0][0]
+                        .max(p.stiffness[1][1])
+                        .max(p.stiffness[2][2])
+                })
+                .fold(0.0f64, f64::max);
         let n_c = coords0.len();
         let initial = State {
             t: 0.0,
@@ -455,6 +467,7 @@ impl System {
             initial,
             mass_ref,
             length_ref,
+            force_ref,
             velocity_given,
         })
     }
