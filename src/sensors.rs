@@ -166,13 +166,21 @@ impl Channels {
                     )
                 }
                 Sensor::Energy { .. } => add(&mut c, name, &ENERGY, &["J"], Source::Energy),
-                Sensor::BeamSection { beam, eta, .. } => {
+                Sensor::BeamSection { beam, eta, s, .. } => {
                     let info = sys
                         .beam_info
                         .iter()
                         .find(|b| &b.name == beam)
                         .expect("validated");
-                    let x = eta * info.count as f64;
+                    let eta = eta
+                        .unwrap_or_else(|| s.unwrap_or(0.0) / info.length)
+                        .clamp(0.0, 1.0);
+                    let mut x = eta * info.count as f64;
+                    // A station on an element boundary belongs to the element after it, however
+                    // its fraction was rounded.
+                    if (x - x.round()).abs() < 1e-9 {
+                        x = x.round();
+                    }
                     let e = (x.floor() as usize).min(info.count - 1);
                     let xi = 2.0 * (x - e as f64) - 1.0;
                     add(

@@ -100,7 +100,10 @@ def test_hanging_beam_carries_the_weight_below_each_section(order, elements):
     stations = [0.1, 0.25, 0.5, 0.75, 0.9]
     for eta in stations:
         m.sensor("beam_section", f"s{int(eta * 100)}", beam="rope", eta=eta)
+    m.sensor("beam_section", "by_arc_length", beam="rope", s=1.0)
     res = fd.simulate(m, scheme="ed", dt=1e-2, t_end=1.0)
+    # A station by arc length is the same as by fraction of the length.
+    np.testing.assert_array_equal(res["by_arc_length.F1"].values, res["s50.F1"].values)
     # Lumping the mass at the nodes misplaces half a node's weight at a linear element's
     # Gauss point (m g Lₑ/2 = 0.49 N here); higher orders recover the exact statics.
     tol = 0.5 if order == 1 else 1e-3
@@ -123,10 +126,15 @@ def test_beam_section_sensor_errors():
     m = fd.Model()
     m.beam("b", [0, 0, 0], [1, 0, 0], elements=2, order=1, section=SECTION)
     m.sensor("beam_section", "s", beam="c", eta=1.5)
+    m.sensor("beam_section", "too_far", beam="b", s=1.5)
+    m.sensor("beam_section", "both", beam="b", s=0.5, eta=0.5)
     with pytest.raises(fd.ModelError) as e:
         m.validate()
-    assert "sensors[0].beam: refers to beam `c`" in str(e.value)
-    assert "sensors[0].eta: must be a fraction of the beam length between 0 and 1" in str(e.value)
+    msg = str(e.value)
+    assert "sensors[0].beam: refers to beam `c`" in msg
+    assert "sensors[0].eta: must be a fraction of the beam length between 0 and 1" in msg
+    assert "sensors[1].s: must be an arc length along the beam (the beam is 1 m long), got 1.5" in msg
+    assert "sensors[2]: give exactly one of `eta` (fraction of the length) and `s` (arc length)" in msg
 
 
 @pytest.mark.parametrize("scheme,order,elements", [("ep", 1, 32), ("ep", 2, 8), ("ep", 3, 4), ("ed", 3, 8)])

@@ -136,6 +136,26 @@ fn default_order() -> usize {
 }
 
 impl Beam {
+    /// Reference length, if the end points are known (given, or nodes of `model`).
+    pub fn length(&self, model: &Model) -> Option<f64> {
+        let at = |p: &Option<Vec3>, n: &Option<String>| -> Option<Vec3> {
+            p.or_else(|| {
+                n.as_ref().and_then(|n| {
+                    model
+                        .nodes
+                        .iter()
+                        .find(|x| &x.name == n)
+                        .map(|x| x.position)
+                })
+            })
+        };
+        let (a, b) = (
+            at(&self.start, &self.start_node)?,
+            at(&self.end, &self.end_node)?,
+        );
+        Some(((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt())
+    }
+
     /// Nodes along the beam: elements × order + 1.
     pub fn node_count(&self) -> usize {
         self.elements * self.order + 1
@@ -385,14 +405,19 @@ pub enum Sensor {
     DriveForce { name: String, joint: String },
     /// `.kinetic .potential .total .drive_work .external_work .damper_work .numerical_dissipation`, J.
     Energy { name: String },
-    /// At a station of a beam (`eta`: fraction of its length from the start): sectional forces
+    /// At a station of a beam (`eta`: fraction of its length, or `s`: arc length): sectional forces
     /// `.F1 .F2 .F3` (N) and moments `.M1 .M2 .M3` (N·m) in the deformed section frame (axis 1
     /// along the beam), strains `.e1 .g2 .g3` and curvatures `.k1 .k2 .k3` (1/m) relative to the
     /// reference, and the position `.x .y .z` (m). Recovered from the Gauss points.
     BeamSection {
         name: String,
         beam: String,
-        eta: f64,
+        /// Fraction of the beam length from its start (give `eta` or `s`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        eta: Option<f64>,
+        /// Arc length from the start, m, in the reference configuration.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        s: Option<f64>,
     },
     /// Total linear momentum `.px .py .pz` (N·s) and angular momentum about the origin
     /// `.Hx .Hy .Hz` (N·m·s), inertial frame.

@@ -411,12 +411,26 @@ impl Model {
                     }
                 }
                 Sensor::Energy { .. } | Sensor::Momentum { .. } => {}
-                Sensor::BeamSection { beam, eta, .. } => {
-                    if !self.beams.iter().any(|b| &b.name == beam) {
+                Sensor::BeamSection { beam, eta, s, .. } => {
+                    let b = self.beams.iter().find(|b| &b.name == beam);
+                    if b.is_none() {
                         c.err(format!("{p}.beam"), format!("refers to beam `{beam}`, which is not defined in `beams`"));
                     }
-                    if !(eta.is_finite() && (0.0..=1.0).contains(eta)) {
-                        c.err(format!("{p}.eta"), format!("must be a fraction of the beam length between 0 and 1 (got {eta})"));
+                    match (eta, s) {
+                        (Some(eta), None) => {
+                            if !(eta.is_finite() && (0.0..=1.0).contains(eta)) {
+                                c.err(format!("{p}.eta"), format!("must be a fraction of the beam length between 0 and 1 (got {eta})"));
+                            }
+                        }
+                        (None, Some(s)) => {
+                            let length = b.and_then(|b| b.length(self));
+                            let ok = s.is_finite() && *s >= 0.0 && length.is_none_or(|l| *s <= l * (1.0 + 1e-12));
+                            if !ok {
+                                let l = length.map_or(String::new(), |l| format!(" (the beam is {l} m long)"));
+                                c.err(format!("{p}.s"), format!("must be an arc length along the beam{l}, got {s}"));
+                            }
+                        }
+                        _ => c.err(p.clone(), "give exactly one of `eta` (fraction of the length) and `s` (arc length)"),
                     }
                 }
             }

@@ -25,6 +25,8 @@ pub struct BeamInfo {
     pub name: String,
     pub first: usize,
     pub count: usize,
+    /// Reference length, m.
+    pub length: f64,
 }
 
 /// What a model joint became: its kernel and, for a revolute, its coordinate, drive and spring.
@@ -189,6 +191,11 @@ impl System {
                     name: b.name.clone(),
                     first: *first,
                     count: meshed.len(),
+                    length: meshed
+                        .iter()
+                        .flat_map(|e| e.points.iter())
+                        .map(|p| p.weight)
+                        .sum(),
                 };
                 *first += meshed.len();
                 Some(info)
