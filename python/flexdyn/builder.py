@@ -223,6 +223,7 @@ class Model:
         d = self.data
         return (
             f"Model({d.get('name')!r}: {len(d['nodes'])} nodes, {len(d['bodies'])} bodies, "
+            f"{len(d.get('beams', []))} beams, "
             f"{len(d['joints'])} joints, {len(d['sensors'])} sensors)"
         )
 
