@@ -258,6 +258,41 @@ impl BeamElement {
         }
     }
 
+    /// ED: nodal rotations at i and f, and nodal velocities (v, material W) of the j- and
+    /// f-states, from the local unknowns (jump velocities carried as h·V_j, system::layout).
+    #[allow(clippy::type_complexity)]
+    fn ed_motion<T: Real>(
+        &self,
+        ctx: &StepCtx,
+        y: &[T],
+    ) -> (
+        [M3<T>; MAX_NODES],
+        [M3<T>; MAX_NODES],
+        [(V3<T>, V3<T>); MAX_NODES],
+        [(V3<T>, V3<T>); MAX_NODES],
+    ) {
+        let h = ctx.h;
+        let mut rot_i = [M3::<T>::identity(); MAX_NODES];
+        let mut rot_f = [M3::<T>::identity(); MAX_NODES];
+        let mut vel_j = [(V3::<T>::zero(), V3::<T>::zero()); MAX_NODES];
+        let mut vel_f = [(V3::<T>::zero(), V3::<T>::zero()); MAX_NODES];
+        for (a, &node) in self.nodes.iter().enumerate() {
+            let ri = M3::<T>::from_f64(&ctx.state.nodes[node].r);
+            let r = v3(y, 12 * a + 3);
+            rot_i[a] = ri;
+            rot_f[a] = ri.mul_m(&cayley(&r));
+            vel_j[a] = (
+                v3(y, 12 * a + 6).scale_f(1.0 / h),
+                v3(y, 12 * a + 9).scale_f(1.0 / h),
+            );
+            vel_f[a] = (
+                v3(y, 12 * a).scale_f(2.0 / h) - vel_j[a].0,
+                r.scale_f(2.0 / h) - vel_j[a].1,
+            );
+        }
+        (rot_i, rot_f, vel_j, vel_f)
+    }
+
     /// Strain energy `Σ_g w ½ εᵀ C ε` of a state (its nodes and this element's history).
     pub fn strain_energy(&self, state: &crate::state::State) -> f64 {
         self.gauss_values(state)
@@ -291,24 +326,7 @@ impl BeamElement {
     pub fn jump_dissipation(&self, ctx: &StepCtx, y: &[f64]) -> f64 {
         let h = ctx.h;
         let nn = self.nodes.len();
-        let mut rot_i = [M3::<f64>::identity(); MAX_NODES];
-        let mut rot_f = [M3::<f64>::identity(); MAX_NODES];
-        let mut vel_j = [(V3::zero(), V3::zero()); MAX_NODES];
-        let mut vel_f = [(V3::zero(), V3::zero()); MAX_NODES];
-        for (a, &node) in self.nodes.iter().enumerate() {
-            let ri = ctx.state.nodes[node].r;
-            let r = v3(y, 12 * a + 3);
-            rot_i[a] = ri;
-            rot_f[a] = ri.mul_m(&cayley(&r));
-            vel_j[a] = (
-                v3(y, 12 * a + 6).scale_f(1.0 / h),
-                v3(y, 12 * a + 9).scale_f(1.0 / h),
-            );
-            vel_f[a] = (
-                v3(y, 12 * a).scale_f(2.0 / h) - vel_j[a].0,
-                r.scale_f(2.0 / h) - vel_j[a].1,
-            );
-        }
+        let (rot_i, rot_f, vel_j, vel_f) = self.ed_motion(ctx, y);
         (0..self.points.len())
             .map(|g| {
                 let ps = self.point_step::<f64>(ctx, g, y);
@@ -348,27 +366,17 @@ impl Kernel for BeamElement {
     fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], res: &mut [T]) {
         let h = ctx.h;
         let nn = self.nodes.len();
-        let mut rot_i = [M3::<T>::identity(); MAX_NODES];
-        let mut rot_f = [M3::<T>::identity(); MAX_NODES];
-        let mut vel_j = [(V3::<T>::zero(), V3::<T>::zero()); MAX_NODES];
-        let mut vel_f = [(V3::<T>::zero(), V3::<T>::zero()); MAX_NODES];
-        if ctx.ed() {
-            for (a, &node) in self.nodes.iter().enumerate() {
-                let ri = M3::<T>::from_f64(&ctx.state.nodes[node].r);
-                let r = v3(y, 12 * a + 3);
-                rot_i[a] = ri;
-                rot_f[a] = ri.mul_m(&cayley(&r));
-                // Jump velocities are carried as h·V_j (system::layout).
-                vel_j[a] = (
-                    v3(y, 12 * a + 6).scale_f(1.0 / h),
-                    v3(y, 12 * a + 9).scale_f(1.0 / h),
-                );
-                vel_f[a] = (
-                    v3(y, 12 * a).scale_f(2.0 / h) - vel_j[a].0,
-                    r.scale_f(2.0 / h) - vel_j[a].1,
-                );
-            }
-        }
+        // Only ED uses the nodal rotations and velocities of the j- and f-states.
+        let (rot_i, rot_f, vel_j, vel_f) = if ctx.ed() {
+            self.ed_motion(ctx, y)
+        } else {
+            (
+                [M3::identity(); MAX_NODES],
+                [M3::identity(); MAX_NODES],
+                [(V3::zero(), V3::zero()); MAX_NODES],
+                [(V3::zero(), V3::zero()); MAX_NODES],
+            )
+        };
         for g in 0..self.points.len() {
             let c = &self.points[g].stiffness;
             let ps = self.point_step(ctx, g, y);
