@@ -286,3 +286,13 @@ def test_end_moment_rolls_a_cantilever_into_a_circle():
     mid = np.array([float(s[f"mid.{c}"]) for c in "xyz"])
     assert np.linalg.norm(tip) < 1e-3 * length
     assert np.linalg.norm(mid - [0, length / np.pi, 0]) < 1e-3 * length
+
+
+def test_offset_centre_of_mass_in_a_beam_section_is_refused_clearly():
+    m = fd.Model()
+    m.beam("blade", [0, 0, 0], [1, 0, 0], elements=2, order=1, section={**SECTION, "cm_offset": [0.01, 0.0]})
+    with pytest.raises(
+        fd.ModelError,
+        match=r"beams\[0\]\.section\.cm_offset: beam `blade`: sections with an offset centre of mass are not supported yet",
+    ):
+        m.validate()

@@ -5,13 +5,17 @@
 //! measured at the reference line in the section frame (axis 1 along the beam).
 
 use crate::vec3::{M3, V3};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
 
 pub type Mat6 = [[f64; 6]; 6];
 
 /// The usual shorthand of a section: principal stiffnesses about the tension and shear
 /// centres, and mass properties about the centre of mass, with the centres' offsets (x₂, x₃)
 /// from the reference line.
-#[derive(Clone, Debug, Default, PartialEq)]
+/// It is also the `section:` of a beam in the model file.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug, Default, PartialEq)]
+#[serde(deny_unknown_fields)]
 pub struct Shorthand {
     /// Axial stiffness EA, N.
     pub ea: f64,
@@ -29,9 +33,13 @@ pub struct Shorthand {
     /// ∫ρx₂², i₂₃ = ∫ρx₂x₃ (kg·m); the polar moment is i₂₂ + i₃₃.
     pub i22: f64,
     pub i33: f64,
+    #[serde(default)]
     pub i23: f64,
+    #[serde(default)]
     pub cm_offset: [f64; 2],
+    #[serde(default)]
     pub tension_center: [f64; 2],
+    #[serde(default)]
     pub shear_center: [f64; 2],
 }
 

@@ -115,7 +115,8 @@ pub struct Beam {
     /// Element order: 1 linear (2 nodes), 2 quadratic (3 nodes), 3 cubic (4 nodes).
     #[serde(default = "default_order")]
     pub order: usize,
-    pub section: SectionSpec,
+    /// Sectional properties (`beam::section::Shorthand`).
+    pub section: crate::beam::section::Shorthand,
     /// Direction of the section's axis 2 at the start (projected normal to the beam axis);
     /// defaults to a direction normal to the axis.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -167,48 +168,6 @@ impl Beam {
             (0, Some(n), _) => n.clone(),
             (k, _, Some(n)) if k == last => n.clone(),
             _ => format!("{}.{k}", self.name),
-        }
-    }
-}
-
-/// Sectional properties (see `beam::section`): stiffnesses, mass per length, mass moments of
-/// inertia per length about the centre of mass, and the centres' offsets in the section.
-#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug, Default)]
-#[serde(deny_unknown_fields)]
-pub struct SectionSpec {
-    pub ea: f64,
-    pub ga2: f64,
-    pub ga3: f64,
-    pub gj: f64,
-    pub ei2: f64,
-    pub ei3: f64,
-    pub m: f64,
-    pub i22: f64,
-    pub i33: f64,
-    #[serde(default)]
-    pub i23: f64,
-    #[serde(default)]
-    pub tension_center: [f64; 2],
-    #[serde(default)]
-    pub shear_center: [f64; 2],
-}
-
-impl SectionSpec {
-    pub fn shorthand(&self) -> crate::beam::section::Shorthand {
-        crate::beam::section::Shorthand {
-            ea: self.ea,
-            ga2: self.ga2,
-            ga3: self.ga3,
-            gj: self.gj,
-            ei2: self.ei2,
-            ei3: self.ei3,
-            m: self.m,
-            i22: self.i22,
-            i33: self.i33,
-            i23: self.i23,
-            cm_offset: [0.0; 2],
-            tension_center: self.tension_center,
-            shear_center: self.shear_center,
         }
     }
 }

@@ -267,8 +267,15 @@ impl Model {
                     format!("beam `{name}`: order must be 1 (linear), 2 (quadratic) or 3 (cubic), got {}", b.order),
                 );
             }
-            if let Err(e) = crate::beam::section::Section::from_shorthand(&b.section.shorthand()) {
+            if let Err(e) = crate::beam::section::Section::from_shorthand(&b.section) {
                 c.err(format!("{p}.section"), format!("beam `{name}`: {e}"));
+            }
+            if b.section.cm_offset != [0.0; 2] {
+                // Beam mass is lumped at the nodes, whose inertia kernel has no v–ω coupling.
+                c.err(
+                    format!("{p}.section.cm_offset"),
+                    format!("beam `{name}`: sections with an offset centre of mass are not supported yet; remove cm_offset"),
+                );
             }
             if let Some(e2) = &b.e2 {
                 c.vec3(format!("{p}.e2"), e2);

@@ -64,7 +64,7 @@ pub fn mesh(
     let e2 = trial - t.scale_f(trial.dot(&t));
     let e2 = e2.scale_f(1.0 / e2.norm());
     let start_triad = M3::from_cols(t, e2, t.cross(&e2));
-    let section = Section::from_shorthand(&b.section.shorthand()).expect("validated section");
+    let section = Section::from_shorthand(&b.section).expect("validated section");
     let j_section = M3([
         [section.mass[3][3], section.mass[3][4], section.mass[3][5]],
         [section.mass[4][3], section.mass[4][4], section.mass[4][5]],
