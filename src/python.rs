@@ -92,6 +92,28 @@ impl PySimulation {
         })
     }
 
+    /// Static analysis: solves the load steps to load factor 1. Raises SolverError if a load
+    /// step cannot be completed; the converged load steps stay available via take_samples().
+    fn solve_static(&mut self, py: Python<'_>) -> PyResult<()> {
+        let sim = &mut self.sim;
+        py.detach(|| sim.solve_static()).map_err(|e| {
+            SolverError::new_err(format!(
+                "{e}\nThe static analysis stopped at load factor {:.4}; every converged load step was recorded.",
+                self.sim.load_factor()
+            ))
+        })
+    }
+
+    #[getter]
+    fn is_static(&self) -> bool {
+        self.sim.is_static()
+    }
+
+    #[getter]
+    fn load_factor(&self) -> f64 {
+        self.sim.load_factor()
+    }
+
     /// Completes samples still waiting for the next step (call before a final take_samples
     /// when a run is interrupted).
     fn flush(&mut self) {

@@ -4,7 +4,7 @@
 use crate::elements::StepCtx;
 use crate::integrator::{Integrator, StepFailure, StepReport};
 use crate::joints::Side;
-use crate::model::{Model, ModelErrors, Scheme, SimulationSettings};
+use crate::model::{Analysis, Model, ModelErrors, Scheme, SimulationSettings};
 use crate::sensors::{Channels, Totals};
 use crate::state::State;
 use crate::system::layout::Layout;
@@ -63,6 +63,8 @@ pub struct Simulation {
     recent: std::collections::VecDeque<(f64, Vec<f64>)>,
     step_index: u64,
     output_every: u64,
+    /// Static analysis: the load factor of the current state.
+    load_factor: f64,
 }
 
 impl Simulation {
@@ -71,12 +73,24 @@ impl Simulation {
     }
 
     pub fn with_scheme(model: &Model, scheme: Scheme) -> Result<Simulation, SimError> {
-        let system = System::compile_with(model, scheme).map_err(SimError::Model)?;
+        let statics = model.simulation.analysis == Analysis::Static;
+        // A static solve has no velocities: it uses the EP layout whatever the scheme.
+        let layout_scheme = if statics { Scheme::Ep } else { scheme };
+        let system = System::compile_with(model, layout_scheme).map_err(SimError::Model)?;
         let mut settings = model.simulation.clone();
         settings.scheme = scheme;
         let mut state = system.initial.clone();
         let mut warnings = Vec::new();
-        let change = project_initial_velocities(&system, &mut state);
+        let change = if statics {
+            for n in &mut state.nodes {
+                n.v = V3::zero();
+                n.w = V3::zero();
+            }
+            state.coord_rates.iter_mut().for_each(|r| *r = 0.0);
+            vec![0.0; state.nodes.len()]
+        } else {
+            project_initial_velocities(&system, &mut state)
+        };
         let v_scale = state
             .nodes
             .iter()
@@ -121,9 +135,83 @@ impl Simulation {
             recent: Default::default(),
             step_index: 0,
             output_every,
+            load_factor: 0.0,
         };
-        sim.record();
+        if statics {
+            // The unloaded state, with no reactions yet.
+            let mut row = Vec::with_capacity(sim.channels.len());
+            sim.channels
+                .sample(&sim.system, &sim.state, &sim.totals, &mut row);
+            for &c in sim.channels.step_channels() {
+                row[c] = 0.0;
+            }
+            sim.times.push(0.0);
+            sim.values.extend_from_slice(&row);
+        } else {
+            sim.record();
+        }
         Ok(sim)
+    }
+
+    pub fn is_static(&self) -> bool {
+        self.settings.analysis == Analysis::Static
+    }
+
+    /// Static analysis: equilibrium under the loads ramped from the current load factor to 1
+    /// in `load_steps` equal increments, each halved (recursively) if Newton fails. Records
+    /// one sample per converged load step, keyed by its load factor.
+    pub fn solve_static(&mut self) -> Result<(), StepFailure> {
+        assert!(self.is_static(), "the model's analysis is not static");
+        let n = self.settings.load_steps.max(1);
+        let start = self.load_factor;
+        for k in 1..=n {
+            let target = start + (1.0 - start) * k as f64 / n as f64;
+            let result = self.advance_load(target, 0);
+            self.update_stats();
+            result?;
+        }
+        Ok(())
+    }
+
+    /// Load factor reached by a static analysis (0 before it starts, 1 when done).
+    pub fn load_factor(&self) -> f64 {
+        self.load_factor
+    }
+
+    fn advance_load(&mut self, target: f64, depth: u32) -> Result<(), StepFailure> {
+        match self
+            .integrator
+            .static_step(&self.system, &self.state, target)
+        {
+            Ok((state, report)) => {
+                self.state = state;
+                self.load_factor = target;
+                self.stats.steps += 1;
+                self.stats.max_constraint_violation = self
+                    .stats
+                    .max_constraint_violation
+                    .max(report.max_violation);
+                let mut row = Vec::with_capacity(self.channels.len());
+                self.channels
+                    .sample(&self.system, &self.state, &self.totals, &mut row);
+                let mut step = Vec::new();
+                self.channels.step_values(&report, &mut step);
+                for (&c, v) in self.channels.step_channels().iter().zip(step) {
+                    row[c] = v;
+                }
+                self.times.push(target);
+                self.values.extend_from_slice(&row);
+                self.last_report = Some(report);
+                Ok(())
+            }
+            Err(e) if e.retry && depth < self.settings.max_step_halvings => {
+                self.stats.halvings += 1;
+                let mid = 0.5 * (self.load_factor + target);
+                self.advance_load(mid, depth + 1)?;
+                self.advance_load(target, depth + 1)
+            }
+            Err(e) => Err(e),
+        }
     }
 
     /// Records a sample at the current time. Its state channels are final; its step channels
@@ -287,6 +375,9 @@ impl Simulation {
     }
 
     pub fn done(&self) -> bool {
+        if self.is_static() {
+            return self.load_factor >= 1.0;
+        }
         self.state.t >= self.settings.t_end - 1e-9 * self.settings.dt
     }
 
@@ -300,6 +391,7 @@ impl Simulation {
             s: Integrator::scaling(&self.system, h),
             state: &self.state,
             gravity: self.system.gravity,
+            statics: None,
         }
     }
 }

@@ -10,7 +10,7 @@ time integration (Bauchau & Bottasso 2001).
 from ._core import FlexdynError, ModelError, SolverError
 from ._core import schema as _schema
 from .builder import Model, load
-from .results import open_results, simulate
+from .results import open_results, simulate, solve_static
 
 __all__ = [
     "FlexdynError",
@@ -21,6 +21,7 @@ __all__ = [
     "open_results",
     "schema",
     "simulate",
+    "solve_static",
 ]
 
 

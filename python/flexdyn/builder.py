@@ -168,17 +168,29 @@ class Model:
     def clamp(self, name, node1, node2):
         return self._joint("clamp", name, node1, node2)
 
-    def force(self, name, node, value, scale=None):
-        """Dead point force (N, inertial frame) times an optional function of time."""
-        self.data["loads"].append(
-            _drop_none({"type": "force", "name": name, "node": node, "value": _vec(value), "scale": scale})
-        )
-        return self
+    def force(self, name, node, value, scale=None, follower=False):
+        """Point force, N, times an optional function of time: dead (inertial frame) or, with
+        follower=True, given in the node's triad and turning with it."""
+        return self._load("force", name, node=node, value=value, scale=scale, follower=follower)
 
-    def moment(self, name, node, value, scale=None):
-        self.data["loads"].append(
-            _drop_none({"type": "moment", "name": name, "node": node, "value": _vec(value), "scale": scale})
-        )
+    def moment(self, name, node, value, scale=None, follower=False):
+        """Point moment, N·m: dead (inertial frame) or follower (node's triad)."""
+        return self._load("moment", name, node=node, value=value, scale=scale, follower=follower)
+
+    def distributed_force(self, name, beam, value, scale=None, follower=False):
+        """Force per unit length along a whole beam, N/m: dead (inertial frame) or follower
+        (section frame, axis 1 along the beam), lumped consistently to the beam's nodes."""
+        return self._load("distributed_force", name, beam=beam, value=value, scale=scale, follower=follower)
+
+    def distributed_moment(self, name, beam, value, scale=None, follower=False):
+        """Moment per unit length along a whole beam, N·m/m (dead or follower)."""
+        return self._load("distributed_moment", name, beam=beam, value=value, scale=scale, follower=follower)
+
+    def _load(self, kind, name, *, value, scale, follower, **target):
+        item = {"type": kind, "name": name, **target, "value": _vec(value), "scale": scale}
+        if follower:
+            item["follower"] = True
+        self.data["loads"].append(_drop_none(item))
         return self
 
     def sensor(self, kind, name, **fields):
@@ -188,7 +200,8 @@ class Model:
         return self
 
     def settings(self, **fields):
-        """Simulation settings: scheme ("ep"/"ed"), t_end, dt, output_dt, newton_tol, ..."""
+        """Simulation settings: analysis ("dynamic"/"static"), load_steps, scheme ("ep"/"ed"),
+        t_end, dt, output_dt, newton_tol, max_newton_iterations, max_step_halvings."""
         self.data["simulation"].update(fields)
         return self
 

@@ -23,16 +23,17 @@ CHUNK_STEPS = 500
 
 
 class _NetcdfWriter:
-    def __init__(self, path: Path, names, units, attrs):
+    def __init__(self, path: Path, names, units, attrs, dim="time", dim_units="s"):
         import netCDF4
 
         self.ds = netCDF4.Dataset(path, "w", format="NETCDF4")
-        self.ds.createDimension("time", None)
-        t = self.ds.createVariable("time", "f8", ("time",))
-        t.units = "s"
+        self.dim = dim
+        self.ds.createDimension(dim, None)
+        t = self.ds.createVariable(dim, "f8", (dim,))
+        t.units = dim_units
         self.vars = []
         for n, u in zip(names, units):
-            v = self.ds.createVariable(n, "f8", ("time",), zlib=False)
+            v = self.ds.createVariable(n, "f8", (dim,), zlib=False)
             v.units = u
             self.vars.append(v)
         for k, val in attrs.items():
@@ -43,7 +44,7 @@ class _NetcdfWriter:
         m = len(times)
         if m == 0:
             return
-        self.ds["time"][self.n : self.n + m] = times
+        self.ds[self.dim][self.n : self.n + m] = times
         for j, v in enumerate(self.vars):
             v[self.n : self.n + m] = values[:, j]
         self.n += m
@@ -57,9 +58,9 @@ class _NetcdfWriter:
         self.ds.close()
 
 
-def _dataset(times, values, names, units, attrs) -> xr.Dataset:
-    data = {n: ("time", values[:, j], {"units": u}) for j, (n, u) in enumerate(zip(names, units))}
-    return xr.Dataset(data, coords={"time": ("time", times, {"units": "s"})}, attrs=attrs)
+def _dataset(times, values, names, units, attrs, dim="time", dim_units="s") -> xr.Dataset:
+    data = {n: (dim, values[:, j], {"units": u}) for j, (n, u) in enumerate(zip(names, units))}
+    return xr.Dataset(data, coords={dim: (dim, times, {"units": dim_units})}, attrs=attrs)
 
 
 def _progress(t, t_end, start):
@@ -85,6 +86,7 @@ def simulate(
 ) -> xr.Dataset:
     """Runs a model (a Model, a dict, or a YAML path) and returns its sensors as an
     xarray.Dataset with a `time` coordinate; with `out`, streams them to that NetCDF file.
+    A model whose `simulation.analysis` is `static` is solved as by `solve_static`.
 
     Keyword arguments override the model's `simulation` settings. With `out`, samples go to
     disk chunk by chunk and are not kept in memory: the returned dataset reads the file
@@ -104,11 +106,13 @@ def simulate(
     names, units = sim.channel_names, sim.channel_units
     attrs = {
         "model": data.get("name") or "",
+        "analysis": "static" if sim.is_static else "dynamic",
         "scheme": sim.scheme,
         "dt": sim.dt,
         "flexdyn_model": json.dumps(data),
     }
-    writer = _NetcdfWriter(Path(out), names, units, attrs) if out is not None else None
+    dim, dim_units = ("load_factor", "1") if sim.is_static else ("time", "s")
+    writer = _NetcdfWriter(Path(out), names, units, attrs, dim, dim_units) if out is not None else None
     chunks_t, chunks_v = [], []
     start = time.perf_counter()
     error = None
@@ -127,7 +131,10 @@ def simulate(
     try:
         while not sim.done:
             try:
-                sim.advance_to(sim.t + CHUNK_STEPS * sim.dt)
+                if sim.is_static:
+                    sim.solve_static()
+                else:
+                    sim.advance_to(sim.t + CHUNK_STEPS * sim.dt)
             except _core.SolverError as e:
                 error = e
             drain()
@@ -156,13 +163,39 @@ def simulate(
     else:
         times = np.concatenate(chunks_t) if chunks_t else np.zeros(0)
         values = np.concatenate(chunks_v) if chunks_v else np.zeros((0, len(names)))
-        ds = _dataset(times, values, names, units, {**attrs, **run_attrs})
+        ds = _dataset(times, values, names, units, {**attrs, **run_attrs}, dim, dim_units)
     ds.attrs["stats"] = stats
     ds.attrs["warnings_list"] = list(sim.warnings)
     if error is not None:
         error.results = ds
         raise error
     return ds
+
+
+def solve_static(
+    model,
+    *,
+    load_steps: int | None = None,
+    newton_tol: float | None = None,
+    out: str | Path | None = None,
+) -> xr.Dataset:
+    """Static equilibrium of a model at t = 0: loads and gravity are ramped by a load factor
+    from 0 to 1 in `load_steps` equal steps (each halved automatically if Newton fails);
+    drives are held at their value at t = 0 and velocities are zero.
+
+    Returns the sensors as an xarray.Dataset with a `load_factor` coordinate (one sample per
+    converged load step, the unloaded state first); `ds.isel(load_factor=-1)` is the
+    equilibrium under the full loads. Arguments as for `simulate`.
+    """
+    if isinstance(model, (str, Path)):
+        model = load(model)
+    elif isinstance(model, dict):
+        model = Model.from_dict(model)
+    data = model.to_dict()
+    data["simulation"]["analysis"] = "static"
+    if load_steps is not None:
+        data["simulation"]["load_steps"] = load_steps
+    return simulate(Model.from_dict(data), newton_tol=newton_tol, out=out)
 
 
 def open_results(path: str | Path) -> xr.Dataset:

@@ -9,7 +9,8 @@
 //! `H = I − ρρᵀ/(4 + ρᵀρ)`. The strains `e* = R_gᵀ x′ − ī₁ − e₀`, `κ = k* − k₀` then satisfy
 //! `e*_f − e*_i = R_mᵀ(Δx′ + x̃′_a ρ_g)` exactly, so with the mean sectional forces
 //! `N_m = C (ε_i + ε_f)/2` the work of the internal forces over a step is `U_f − U_i`.
-//! Inertia is lumped at the nodes (the rigid-body kernel).
+//! Inertia is lumped at the nodes (the rigid-body kernel). In statics the element adds
+//! `∫ B(q_f)ᵀ C ε_f ds`, the exact gradient of its strain energy.
 
 use super::section::Mat6;
 use super::shape::MAX_NODES;
@@ -366,6 +367,20 @@ impl Kernel for BeamElement {
     fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], res: &mut [T]) {
         let h = ctx.h;
         let nn = self.nodes.len();
+        if ctx.is_static() {
+            // Statics: B(q_f)ᵀ C ε_f, rotation rows material at f (as every static kernel).
+            let mut rot_f = [M3::<T>::identity(); MAX_NODES];
+            for (a, &node) in self.nodes.iter().enumerate() {
+                let ri = M3::<T>::from_f64(&ctx.state.nodes[node].r);
+                rot_f[a] = ri.mul_m(&cayley(&v3(y, 6 * a + 3)));
+            }
+            for g in 0..self.points.len() {
+                let ps = self.point_step(ctx, g, y);
+                let n = mat6_mul(&self.points[g].stiffness, &ps.eps_f);
+                self.add_rate_forces(ctx, g, &ps.rg_f, &ps.xp_f, &rot_f[..nn], &n, 0, res);
+            }
+            return;
+        }
         // Only ED uses the nodal rotations and velocities of the j- and f-states.
         let (rot_i, rot_f, vel_j, vel_f) = if ctx.ed() {
             self.ed_motion(ctx, y)
@@ -509,6 +524,7 @@ mod tests {
             s: 1.0,
             state,
             gravity: V3([0.0; 3]),
+            statics: None,
         }
     }
 
@@ -575,16 +591,24 @@ mod tests {
 
     #[test]
     fn tangents_match_finite_differences_for_every_order_and_scheme() {
-        for scheme in [Scheme::Ep, Scheme::Ed] {
+        // Time steps of both schemes, and static solves (EP layout).
+        for (scheme, statics) in [
+            (Scheme::Ep, None),
+            (Scheme::Ed, None),
+            (Scheme::Ep, Some(0.6)),
+        ] {
             for n in 2..=4 {
                 let (el, state, layout) = fixture(n, scheme);
-                let c = ctx(layout, &state);
+                let c = StepCtx {
+                    statics,
+                    ..ctx(layout, &state)
+                };
                 let y: Vec<f64> = (0..layout.n_unknowns())
                     .map(|i| 0.01 * ((i as f64) * 0.9).cos())
                     .collect();
                 let e = tangent_error(&el, &c, &y);
                 // Same bound as the other kernels: FD truncation and round-off relative to |J|.
-                assert!(e < 1e-7, "{scheme:?} n={n}: {e:e}");
+                assert!(e < 1e-7, "{scheme:?} statics={statics:?} n={n}: {e:e}");
             }
         }
     }

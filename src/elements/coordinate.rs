@@ -57,6 +57,11 @@ impl Kernel for CoordinateSpring {
         let qi = ctx.state.coords[self.coord];
         let dq = y[0];
         let eps_f = dq + qi;
+        if ctx.is_static() {
+            // Statics: the spring force at the end state; a damper carries nothing.
+            r[0] += (eps_f - self.rest) * k;
+            return;
+        }
         // Residual rows hold −P (force on the coordinate with the sign of the inertia rows).
         r[0] += dq * (self.damping / h);
         if ctx.ed() {
@@ -172,7 +177,12 @@ mod tests {
             lambda: vec![0.0],
             history: vec![],
         };
-        for scheme in [Scheme::Ep, Scheme::Ed] {
+        // Time steps of both schemes, and static solves (EP layout).
+        for (scheme, statics) in [
+            (Scheme::Ep, None),
+            (Scheme::Ed, None),
+            (Scheme::Ep, Some(0.6)),
+        ] {
             let layout = Layout::new(scheme, 0, 1, 1);
             let ctx = StepCtx {
                 layout,
@@ -182,6 +192,7 @@ mod tests {
                 s: 50.0,
                 state: &state,
                 gravity: V3([0.0; 3]),
+                statics,
             };
             let y: Vec<f64> = (0..layout.n_unknowns())
                 .map(|i| 0.1 + 0.05 * i as f64)

@@ -8,6 +8,7 @@
 //! `Δ = h(V_j + V_f)/2`, plus the j-equations `m(v_j − v_i) = h/6 P_j` and
 //! `J(W_j − W_i) + ½ r̃_j J(W_j + W_i) = h/6 (I − r̃_j/2) P_j`, `r_j = h/6 (W_j − W_f)`.
 //! Rows are premultiplied by `(I − r̃/2)⁻¹/h` so that every other kernel adds plain forces.
+//! In statics only the weight remains.
 
 use super::{add3, v3, Kernel, StepCtx};
 use crate::rotation::inv_i_minus_half_tilde;
@@ -59,6 +60,15 @@ impl Kernel for NodeInertia {
     }
 
     fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], res: &mut [T]) {
+        if let Some(lf) = ctx.statics {
+            // Statics: the weight only.
+            add3(
+                res,
+                0,
+                V3::<T>::from_f64(ctx.gravity.scale_f(-self.mass * lf)),
+            );
+            return;
+        }
         let h = ctx.h;
         let ni = &ctx.state.nodes[self.node];
         let m = self.mass;
@@ -112,7 +122,12 @@ mod tests {
             lambda: vec![],
             history: vec![],
         };
-        for scheme in [Scheme::Ep, Scheme::Ed] {
+        // Time steps of both schemes, and static solves (EP layout).
+        for (scheme, statics) in [
+            (Scheme::Ep, None),
+            (Scheme::Ed, None),
+            (Scheme::Ep, Some(0.6)),
+        ] {
             let layout = Layout::new(scheme, 1, 0, 0);
             let k = NodeInertia::new(0, 1.7, jm, &layout);
             let ctx = StepCtx {
@@ -123,6 +138,7 @@ mod tests {
                 s: 1.0,
                 state: &state,
                 gravity: V3([0.0, 0.0, -9.81]),
+                statics,
             };
             let y: Vec<f64> = (0..layout.n_unknowns())
                 .map(|i| 0.01 * ((i as f64) * 0.7).sin())

@@ -29,11 +29,22 @@ pub struct StepCtx<'a> {
     /// The converged state at the start of the step.
     pub state: &'a State,
     pub gravity: V3<f64>,
+    /// `Some(λ)` in a static solve at load factor λ (loads and gravity times λ; no inertia,
+    /// sectional and constraint forces at the end state); `None` in a time step.
+    pub statics: Option<f64>,
 }
 
 impl StepCtx<'_> {
+    /// A time step with the ED scheme (never in statics, whose layout is EP's).
     pub fn ed(&self) -> bool {
-        self.layout.scheme == Scheme::Ed
+        self.statics.is_none() && self.layout.scheme == Scheme::Ed
+    }
+    pub fn is_static(&self) -> bool {
+        self.statics.is_some()
+    }
+    /// Multiplier of applied loads and gravity: the load factor in statics, 1 in dynamics.
+    pub fn load_factor(&self) -> f64 {
+        self.statics.unwrap_or(1.0)
     }
 }
 

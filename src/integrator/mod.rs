@@ -40,15 +40,24 @@ pub struct StepFailure {
     pub reason: String,
     /// Whether a smaller step could help (not for a singular Newton matrix).
     pub retry: bool,
+    /// A static load step: the load factor it aimed at.
+    pub load_factor: Option<f64>,
 }
 
 impl std::fmt::Display for StepFailure {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "step from t = {:.6} s with h = {:.3e} s failed: {}",
-            self.t, self.h, self.reason
-        )
+        match self.load_factor {
+            Some(l) => write!(
+                f,
+                "static load step to load factor {l:.4} failed: {}",
+                self.reason
+            ),
+            None => write!(
+                f,
+                "step from t = {:.6} s with h = {:.3e} s failed: {}",
+                self.t, self.h, self.reason
+            ),
+        }
     }
 }
 
@@ -59,6 +68,7 @@ pub struct Integrator {
     joint_pos: Vec<Vec<usize>>,
     spring_pos: Vec<Vec<usize>>,
     drive_pos: Vec<Vec<usize>>,
+    load_pos: Vec<Vec<usize>>,
     y: Vec<f64>,
     res: Vec<f64>,
     pub tol: f64,
@@ -77,10 +87,12 @@ impl Integrator {
         blocks.extend(sys.joints.iter().map(|k| k.unknowns()));
         blocks.extend(sys.springs.iter().map(|k| k.unknowns()));
         blocks.extend(sys.drives.iter().map(|k| k.unknowns()));
+        blocks.extend(sys.loads.iter().map(|k| k.unknowns()));
         let n = sys.layout.n_unknowns();
         // Only the structurally nonzero entries enter the pattern: less fill, faster LU.
         let masks = Self::block_masks(sys, settings.dt);
         let (matrix, mut pos) = NewtonMatrix::from_blocks(n, &blocks, Some(&masks));
+        let load_pos = pos.split_off(pos.len() - sys.loads.len());
         let drive_pos = pos.split_off(pos.len() - sys.drives.len());
         let spring_pos = pos.split_off(pos.len() - sys.springs.len());
         let joint_pos = pos.split_off(pos.len() - sys.joints.len());
@@ -92,6 +104,7 @@ impl Integrator {
             joint_pos,
             spring_pos,
             drive_pos,
+            load_pos,
             y: vec![0.0; n],
             res: vec![0.0; n],
             tol: settings.newton_tol,
@@ -101,8 +114,8 @@ impl Integrator {
         }
     }
 
-    /// Structure of every kernel's tangent block, in kernel order (inertias, joints, springs,
-    /// drives): the union of the nonzeros at two generic states (nodes rotated and moving,
+    /// Structure of every kernel's tangent block, in kernel order (inertias, beams, joints,
+    /// springs, drives, loads): the union of the nonzeros at two generic states (nodes rotated and moving,
     /// coordinates and multipliers nonzero), so that no entry is missed because the initial
     /// configuration happens to be aligned with the axes.
     pub fn block_masks(sys: &System, h: f64) -> Vec<Vec<bool>> {
@@ -111,7 +124,14 @@ impl Integrator {
         let n = sys.layout.n_unknowns();
         let wiggle = |k: f64| 0.37 + (k * 12.9898).sin();
         let mut masks: Vec<Vec<bool>> = Vec::new();
-        for trial in 1..=2 {
+        // An EP layout also serves static solves, whose tangents differ (e.g. a dead moment
+        // acts on the f-triad): the pattern covers both.
+        let modes: &[Option<f64>] = if sys.layout.ed() {
+            &[None]
+        } else {
+            &[None, Some(0.7)]
+        };
+        for (trial, &statics) in (1..=2).flat_map(|t| modes.iter().map(move |m| (t, m))) {
             let t = trial as f64;
             let mut state = sys.initial.clone();
             for (a, node) in state.nodes.iter_mut().enumerate() {
@@ -136,6 +156,7 @@ impl Integrator {
                 s: Self::scaling(sys, h),
                 state: &state,
                 gravity: sys.gravity,
+                statics,
             };
             let y: Vec<f64> = (0..n)
                 .map(|i| 1e-2 * wiggle(t * 100.0 + i as f64))
@@ -146,6 +167,7 @@ impl Integrator {
             all.extend(sys.joints.iter().map(|k| block_structure(k, &ctx, &y)));
             all.extend(sys.springs.iter().map(|k| block_structure(k, &ctx, &y)));
             all.extend(sys.drives.iter().map(|k| block_structure(k, &ctx, &y)));
+            all.extend(sys.loads.iter().map(|k| block_structure(k, &ctx, &y)));
             if masks.is_empty() {
                 masks = all;
             } else {
@@ -231,9 +253,7 @@ impl Integrator {
         run!(sys.joints, self.joint_pos);
         run!(sys.springs, self.spring_pos);
         run!(sys.drives, self.drive_pos);
-        for l in &sys.loads {
-            l.add_to_residual(ctx, res);
-        }
+        run!(sys.loads, self.load_pos);
         if with_jacobian && self.matrix.outside_pattern() > 1e-10 {
             // A tangent entry the structure detection judged zero is not: the tangent is
             // incomplete (slower convergence, same solution). Counted so tests can see it.
@@ -270,30 +290,78 @@ impl Integrator {
         state: &State,
         h: f64,
     ) -> Result<(State, StepReport), StepFailure> {
-        let layout = sys.layout;
-        let s = Self::scaling(sys, h);
         let ctx = StepCtx {
-            layout,
+            layout: sys.layout,
             h,
             t_i: state.t,
             t_f: state.t + h,
+            s: Self::scaling(sys, h),
+            state,
+            gravity: sys.gravity,
+            statics: None,
+        };
+        self.predict(sys, state, h);
+        let report = self.newton(sys, &ctx)?;
+        Ok(self.commit(sys, &ctx, report))
+    }
+
+    /// Multiplier scaling of a static solve: the stiffness scale `EA/L` of the stiffest
+    /// section (or weight over size), so constraint rows weigh like elastic ones.
+    pub fn static_scaling(sys: &System) -> f64 {
+        let k = (sys.force_ref * 1e8).max(sys.mass_ref * sys.gravity.norm());
+        let k = sys
+            .springs
+            .iter()
+            .fold(k, |m, sp| m.max(sp.stiffness / sys.length_ref.powi(2)));
+        if k > 0.0 {
+            k / sys.length_ref
+        } else {
+            1.0
+        }
+    }
+
+    /// Static equilibrium at time `state.t` under the loads (and gravity) times `load_factor`,
+    /// from `state` (the previous load step) by Newton's method. Velocities are zero.
+    pub fn static_step(
+        &mut self,
+        sys: &System,
+        state: &State,
+        load_factor: f64,
+    ) -> Result<(State, StepReport), StepFailure> {
+        assert!(!sys.layout.ed(), "static solves use the EP layout");
+        let s = Self::static_scaling(sys);
+        let ctx = StepCtx {
+            layout: sys.layout,
+            h: 1.0,
+            t_i: state.t,
+            t_f: state.t,
             s,
             state,
             gravity: sys.gravity,
+            statics: Some(load_factor),
         };
+        self.y.iter_mut().for_each(|v| *v = 0.0);
+        for r in 0..sys.layout.n_rows {
+            self.y[sys.layout.mult(r)] = state.lambda[r] / s;
+        }
+        let report = self.newton(sys, &ctx)?;
+        Ok(self.commit(sys, &ctx, report))
+    }
+
+    /// Newton's method on the assembled equations from the current unknowns.
+    fn newton(&mut self, sys: &System, ctx: &StepCtx) -> Result<StepReport, StepFailure> {
+        let layout = sys.layout;
         let fail = |reason: String| StepFailure {
-            t: state.t,
-            h,
+            t: ctx.t_i,
+            h: ctx.h,
             reason,
             retry: true,
+            load_factor: ctx.statics,
         };
-
-        self.predict(sys, state, h);
-
         let mut report = StepReport::default();
         let mut f_ref = 0.0;
         for it in 0..=self.max_iter {
-            self.assemble(sys, &ctx, true);
+            self.assemble(sys, ctx, true);
             let (rn, worst) = Self::inf_norm(&self.res);
             report.residuals.push(rn);
             if !rn.is_finite() {
@@ -329,10 +397,15 @@ impl Integrator {
             if let Some(bad) = self.y.iter().position(|v| !v.is_finite()) {
                 // Singular whatever the step: an unconstrained massless motion, or a mechanism
                 // at a lock-up. Say so rather than halving the step in vain.
+                let what = if ctx.is_static() {
+                    "a motion there is resisted neither by stiffness nor by joints (statics needs every rigid-body motion restrained)"
+                } else {
+                    "a motion there is determined neither by mass nor by joints (give the node a body or constrain it)"
+                };
                 return Err(StepFailure {
                     retry: false,
                     ..fail(format!(
-                        "singular Newton matrix at {}: a motion there is determined neither by mass nor by joints (give the node a body or constrain it), or the mechanism is at a singular configuration",
+                        "singular Newton matrix at {}: {what}, or the mechanism is at a singular configuration",
                         sys.describe_row(bad)
                     ))
                 });
@@ -346,7 +419,7 @@ impl Integrator {
             report.iterations += 1;
         }
         self.total_iterations += report.iterations;
-        Ok(self.commit(sys, &ctx, report))
+        Ok(report)
     }
 
     /// Element history at the end of the converged step.
@@ -376,7 +449,10 @@ impl Integrator {
             let d = layout.node_delta(a);
             let dx = V3([y[d], y[d + 1], y[d + 2]]);
             let r = V3([y[d + 3], y[d + 4], y[d + 5]]);
-            let (vs, ws) = if ed {
+            let (vs, ws) = if ctx.is_static() {
+                // Zero velocities at f: v_f = 2Δx/h − v_start.
+                (dx.scale_f(2.0 / h), r.scale_f(2.0 / h))
+            } else if ed {
                 let j = layout.node_jump(a);
                 (
                     V3([y[j], y[j + 1], y[j + 2]]).scale_f(1.0 / h),
@@ -396,7 +472,9 @@ impl Integrator {
         let mut rates = st.coord_rates.clone();
         for c in 0..layout.n_coords {
             let dq = y[layout.coord_delta(c)];
-            let start = if ed {
+            let start = if ctx.is_static() {
+                2.0 * dq / h
+            } else if ed {
                 y[layout.coord_jump(c)] / h
             } else {
                 st.coord_rates[c]

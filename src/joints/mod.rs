@@ -330,7 +330,11 @@ impl JointKernel {
         let si = self.state_i::<f64>(ctx);
         let (sf, _) = self.state_f(ctx, &si, yl);
         let mut b = zero_rows::<f64>();
-        self.law.discrete_gradient(&si, &sf, &mut b);
+        if ctx.is_static() {
+            self.law.rate(&sf, &mut b);
+        } else {
+            self.law.discrete_gradient(&si, &sf, &mut b);
+        }
         let lam = self.multipliers(ctx, yl, false);
         let mut g = [0.0; NCOL];
         for (c, gc) in g.iter_mut().enumerate() {
@@ -418,9 +422,21 @@ impl Kernel for JointKernel {
         let per = Self::per(ctx);
         let si = self.state_i::<T>(ctx);
         let (sf, rs) = self.state_f(ctx, &si, y);
+        let lam = self.multipliers(ctx, y, false);
+        if ctx.is_static() {
+            // Statics: B(q_f)ᵀ λ (rotation rows material at f) and C_f = 0.
+            let mut bf = zero_rows::<T>();
+            self.law.rate(&sf, &mut bf);
+            self.add_forces(ctx, &bf, &lam[..n], &sf.r, false, res);
+            let mut c = [T::zero(); MAX_ROWS];
+            self.law.value(&sf, &mut c);
+            for r in 0..n {
+                res[self.mult_slot + r] += c[r] * ctx.s;
+            }
+            return;
+        }
         let mut bd = zero_rows::<T>();
         self.law.discrete_gradient(&si, &sf, &mut bd);
-        let lam = self.multipliers(ctx, y, false);
         let ri = si.r;
         // f-rows: −P_f ∋ B^Dᵀ λ_f (rotation columns material via R_i).
         self.add_forces(ctx, &bd, &lam[..n], &ri, false, res);
@@ -641,7 +657,12 @@ mod kernel_tests {
             lambda: vec![],
             history: vec![],
         };
-        for scheme in [Scheme::Ep, Scheme::Ed] {
+        // Time steps of both schemes, and static solves (EP layout).
+        for (scheme, statics) in [
+            (Scheme::Ep, None),
+            (Scheme::Ed, None),
+            (Scheme::Ep, Some(0.6)),
+        ] {
             for law in laws() {
                 for ground in [false, true] {
                     let nq = law.n_coords();
@@ -658,7 +679,7 @@ mod kernel_tests {
                     } else {
                         [Side::Node(0), Side::Node(1)]
                     };
-                    let kind = format!("{scheme:?} {law:?} ground={ground}");
+                    let kind = format!("{scheme:?} statics={statics:?} {law:?} ground={ground}");
                     let k = JointKernel::new(
                         "j".into(),
                         law.clone(),
@@ -675,6 +696,7 @@ mod kernel_tests {
                         s: 30.0,
                         state: &state,
                         gravity: V3([0.0; 3]),
+                        statics,
                     };
                     let y: Vec<f64> = (0..layout.n_unknowns())
                         .map(|i| 0.02 * ((i as f64) * 1.3).sin())

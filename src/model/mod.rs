@@ -310,15 +310,20 @@ impl Joint {
     }
 }
 
-/// Applied loads at nodes: dead (fixed direction in the inertial frame), scaled by a function
-/// of time.
+/// Applied loads, each scaled by an optional function of time. A *dead* load keeps its
+/// direction in the inertial frame; a *follower* load is given in the node's triad (for
+/// distributed loads: in the beam's section frame, axis 1 along the beam) and turns with it.
 #[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum Load {
-    /// Point force, N, inertial frame.
+    /// Point force, N.
     Force(PointLoad),
-    /// Point moment, N·m, inertial frame.
+    /// Point moment, N·m.
     Moment(PointLoad),
+    /// Force per unit length along a whole beam, N/m (lumped consistently to its nodes).
+    DistributedForce(DistributedLoad),
+    /// Moment per unit length along a whole beam, N·m/m.
+    DistributedMoment(DistributedLoad),
 }
 
 #[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
@@ -326,18 +331,63 @@ pub enum Load {
 pub struct PointLoad {
     pub name: String,
     pub node: String,
-    /// Load vector, inertial frame.
+    /// Load vector: inertial frame (dead) or the node's triad (follower).
     pub value: Vec3,
+    /// The load turns with the node.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub follower: bool,
     /// Multiplies `value`; defaults to 1.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scale: Option<TimeFunctionSpec>,
 }
 
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct DistributedLoad {
+    pub name: String,
+    pub beam: String,
+    /// Load per unit length of the reference beam: inertial frame (dead) or the section frame
+    /// (follower).
+    pub value: Vec3,
+    /// The load turns with the beam's sections.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub follower: bool,
+    /// Multiplies `value`; defaults to 1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<TimeFunctionSpec>,
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
+}
+
 impl Load {
-    pub fn spec(&self) -> &PointLoad {
+    pub fn name(&self) -> &str {
         match self {
-            Load::Force(l) | Load::Moment(l) => l,
+            Load::Force(l) | Load::Moment(l) => &l.name,
+            Load::DistributedForce(l) | Load::DistributedMoment(l) => &l.name,
         }
+    }
+    pub fn value(&self) -> &Vec3 {
+        match self {
+            Load::Force(l) | Load::Moment(l) => &l.value,
+            Load::DistributedForce(l) | Load::DistributedMoment(l) => &l.value,
+        }
+    }
+    pub fn scale(&self) -> Option<&TimeFunctionSpec> {
+        match self {
+            Load::Force(l) | Load::Moment(l) => l.scale.as_ref(),
+            Load::DistributedForce(l) | Load::DistributedMoment(l) => l.scale.as_ref(),
+        }
+    }
+    pub fn follower(&self) -> bool {
+        match self {
+            Load::Force(l) | Load::Moment(l) => l.follower,
+            Load::DistributedForce(l) | Load::DistributedMoment(l) => l.follower,
+        }
+    }
+    pub fn is_moment(&self) -> bool {
+        matches!(self, Load::Moment(_) | Load::DistributedMoment(_))
     }
 }
 
@@ -411,9 +461,27 @@ pub enum Scheme {
     Ed,
 }
 
+/// What a run computes.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Analysis {
+    /// Time integration from t = 0 to `t_end`.
+    #[default]
+    Dynamic,
+    /// Static equilibrium at t = 0: loads and gravity ramped by a load factor from 0 to 1 in
+    /// `load_steps` equal steps (each halved on failure up to `max_step_halvings` times);
+    /// drives held at their value at t = 0. One sample per load step.
+    Static,
+}
+
 #[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
 #[serde(deny_unknown_fields)]
 pub struct SimulationSettings {
+    #[serde(default)]
+    pub analysis: Analysis,
+    /// Static analysis: number of equal load-factor increments.
+    #[serde(default = "default_load_steps")]
+    pub load_steps: u32,
     #[serde(default)]
     pub scheme: Scheme,
     /// End time, s.
@@ -435,6 +503,9 @@ pub struct SimulationSettings {
     pub max_newton_iterations: u32,
 }
 
+fn default_load_steps() -> u32 {
+    1
+}
 fn default_t_end() -> f64 {
     1.0
 }
@@ -454,6 +525,8 @@ fn default_max_iter() -> u32 {
 impl Default for SimulationSettings {
     fn default() -> Self {
         SimulationSettings {
+            analysis: Analysis::default(),
+            load_steps: default_load_steps(),
             scheme: Scheme::default(),
             t_end: default_t_end(),
             dt: default_dt(),

@@ -155,7 +155,7 @@ impl Model {
                 .loads
                 .iter()
                 .enumerate()
-                .map(|(i, n)| (format!("loads[{i}]"), n.spec().name.as_str()));
+                .map(|(i, n)| (format!("loads[{i}]"), n.name()));
             let s = self
                 .sensors
                 .iter()
@@ -385,10 +385,24 @@ impl Model {
 
         for (i, l) in self.loads.iter().enumerate() {
             let p = format!("loads[{i}]");
-            let s = l.spec();
-            node_ref(&mut c, format!("{p}.node"), &s.node, false);
-            c.vec3(format!("{p}.value"), &s.value);
-            if let Some(f) = &s.scale {
+            match l {
+                Load::Force(s) | Load::Moment(s) => {
+                    node_ref(&mut c, format!("{p}.node"), &s.node, false)
+                }
+                Load::DistributedForce(s) | Load::DistributedMoment(s) => {
+                    if !self.beams.iter().any(|b| b.name == s.beam) {
+                        c.err(
+                            format!("{p}.beam"),
+                            format!(
+                                "load `{}` refers to beam `{}`, which is not defined in `beams`",
+                                s.name, s.beam
+                            ),
+                        );
+                    }
+                }
+            }
+            c.vec3(format!("{p}.value"), l.value());
+            if let Some(f) = l.scale() {
                 c.time_function(format!("{p}.scale"), f);
             }
         }
@@ -463,6 +477,9 @@ impl Model {
         }
         if !(s.newton_tol.is_finite() && s.newton_tol > 0.0 && s.newton_tol < 1.0) {
             c.err("simulation.newton_tol", "must be between 0 and 1");
+        }
+        if s.load_steps == 0 {
+            c.err("simulation.load_steps", "must be at least 1");
         }
         if s.max_newton_iterations < 2 {
             c.err("simulation.max_newton_iterations", "must be at least 2");

@@ -17,6 +17,20 @@ pub struct MeshedElement {
     pub history: Vec<f64>,
 }
 
+/// A meshed beam: its elements and, per node along it, what distributed loads need.
+pub struct BeamMesh {
+    pub elements: Vec<MeshedElement>,
+    /// Global node index of each node along the beam.
+    pub nodes: Vec<usize>,
+    /// `∫ h_α ds` per node along the beam: a uniform load per unit length q lumps to `w_α q`
+    /// (the consistent load vector).
+    pub load_weights: Vec<f64>,
+    /// Reference section triad at each node along the beam (a shared node's own triad may
+    /// differ).
+    pub section_triads: Vec<M3<f64>>,
+    pub length: f64,
+}
+
 /// Nodal weights of the lumped mass of an n-node element (closed Newton–Cotes: trapezoid,
 /// Simpson, Simpson 3/8), all positive.
 fn lumping_weights(n: usize) -> &'static [f64] {
@@ -41,7 +55,7 @@ pub fn mesh(
     velocity_given: &mut Vec<bool>,
     mass: &mut Vec<f64>,
     inertia: &mut Vec<M3<f64>>,
-) -> Vec<MeshedElement> {
+) -> BeamMesh {
     let find =
         |names: &Vec<String>, n: &str| names.iter().position(|x| x == n).expect("validated node");
     let start = match (&b.start, &b.start_node) {
@@ -102,6 +116,29 @@ pub fn mesh(
         inertia.push(M3::zero());
         ids.push(nodes.len() - 1);
     }
+    let mut load_weights = vec![0.0; count];
+    let section_triads: Vec<M3<f64>> = (0..count)
+        .map(|k| {
+            let e = (k / b.order).min(n_el - 1);
+            let local = k - e * b.order;
+            triad(
+                &start_triad,
+                t,
+                b.twist_rate,
+                le * (e as f64 + 0.5 * (zs[local] + 1.0)),
+            )
+        })
+        .collect();
+    // Full Gauss integration of the shape functions (exact for straight elements).
+    let (xl, wl) = gauss(nn);
+    for e in 0..n_el {
+        for (&xi, &wq) in xl.iter().zip(wl) {
+            let (h, _) = lagrange(nn, xi);
+            for a in 0..nn {
+                load_weights[e * b.order + a] += h[a] * wq * 0.5 * le;
+            }
+        }
+    }
     let weights = lumping_weights(nn);
     let (xg, wg) = gauss(reduced_points(nn));
     let mut out = Vec::with_capacity(n_el);
@@ -157,5 +194,11 @@ pub fn mesh(
             history,
         });
     }
-    out
+    BeamMesh {
+        elements: out,
+        nodes: ids,
+        load_weights,
+        section_triads,
+        length,
+    }
 }

@@ -120,7 +120,7 @@ impl System {
         // Beams: their nodes (shared end nodes are reused), lumped inertia, and elements.
         let mut mass = vec![0.0; nodes.len()];
         let mut inertia = vec![M3::<f64>::zero(); nodes.len()];
-        let mut beam_meshes = Vec::new();
+        let mut beam_meshes: Vec<beam_mesh::BeamMesh> = Vec::new();
         for b in &model.beams {
             beam_meshes.push(beam_mesh::mesh(
                 b,
@@ -190,18 +190,14 @@ impl System {
                 let info = BeamInfo {
                     name: b.name.clone(),
                     first: *first,
-                    count: meshed.len(),
-                    length: meshed
-                        .iter()
-                        .flat_map(|e| e.points.iter())
-                        .map(|p| p.weight)
-                        .sum(),
+                    count: meshed.elements.len(),
+                    length: meshed.length,
                 };
-                *first += meshed.len();
+                *first += meshed.elements.len();
                 Some(info)
             })
             .collect();
-        for m in beam_meshes.into_iter().flatten() {
+        for m in beam_meshes.iter_mut().flat_map(|m| m.elements.drain(..)) {
             beams.push(BeamElement::new(
                 m.name,
                 m.nodes,
@@ -408,27 +404,56 @@ impl System {
             }
         }
 
-        let loads = model
-            .loads
-            .iter()
-            .map(|l| {
-                let s = l.spec();
-                Ok(PointLoad {
-                    node: index[&s.node],
-                    kind: match l {
-                        model::Load::Force(_) => LoadKind::Force,
-                        model::Load::Moment(_) => LoadKind::Moment,
-                    },
-                    value: V3(s.value),
-                    scale: s
-                        .scale
-                        .as_ref()
-                        .map(TimeFunction::new)
-                        .transpose()
-                        .map_err(|e| err("loads".into(), e))?,
-                })
-            })
-            .collect::<Result<Vec<_>, ModelErrors>>()?;
+        // Loads; a distributed load becomes one point load per node of its beam.
+        let mut loads = Vec::new();
+        for (i, l) in model.loads.iter().enumerate() {
+            let scale = l
+                .scale()
+                .map(TimeFunction::new)
+                .transpose()
+                .map_err(|e| err(format!("loads[{i}].scale"), e))?;
+            let kind = if l.is_moment() {
+                LoadKind::Moment
+            } else {
+                LoadKind::Force
+            };
+            let value = V3(*l.value());
+            match l {
+                model::Load::Force(p) | model::Load::Moment(p) => loads.push(PointLoad::new(
+                    index[&p.node],
+                    kind,
+                    value,
+                    p.follower,
+                    scale,
+                    &layout,
+                )),
+                model::Load::DistributedForce(d) | model::Load::DistributedMoment(d) => {
+                    let bi = model
+                        .beams
+                        .iter()
+                        .position(|b| b.name == d.beam)
+                        .expect("validated");
+                    let m = &beam_meshes[bi];
+                    for (k, &node) in m.nodes.iter().enumerate() {
+                        // A follower value is given in the section frame; the node's own triad
+                        // may differ (a shared node), so express it there.
+                        let v = if d.follower {
+                            nodes[node].r.tmul_v(&m.section_triads[k].mul_v(&value))
+                        } else {
+                            value
+                        };
+                        loads.push(PointLoad::new(
+                            node,
+                            kind,
+                            v.scale_f(m.load_weights[k]),
+                            d.follower,
+                            scale.clone(),
+                            &layout,
+                        ));
+                    }
+                }
+            }
+        }
 
         let masses: Vec<f64> = mass.iter().copied().filter(|m| *m > 0.0).collect();
         let mass_ref = if masses.is_empty() {
