@@ -172,17 +172,8 @@ impl Channels {
                         .iter()
                         .find(|b| &b.name == beam)
                         .expect("validated");
-                    let eta = eta
-                        .unwrap_or_else(|| s.unwrap_or(0.0) / info.length)
-                        .clamp(0.0, 1.0);
-                    let mut x = eta * info.count as f64;
-                    // A station on an element boundary belongs to the element after it, however
-                    // its fraction was rounded.
-                    if (x - x.round()).abs() < 1e-9 {
-                        x = x.round();
-                    }
-                    let e = (x.floor() as usize).min(info.count - 1);
-                    let xi = 2.0 * (x - e as f64) - 1.0;
+                    let s = eta.map_or(s.unwrap_or(0.0), |eta| eta * info.length);
+                    let (e, xi) = info.locate(s);
                     add(
                         &mut c,
                         name,
@@ -194,7 +185,7 @@ impl Channels {
                             "N", "N", "N", "N*m", "N*m", "N*m", "1", "1", "1", "1/m", "1/m", "1/m",
                             "m",
                         ],
-                        Source::BeamSection(info.first + e, xi),
+                        Source::BeamSection(e, xi),
                     )
                 }
                 Sensor::Momentum { .. } => add(

@@ -94,19 +94,39 @@ class Model:
         end=None,
         *,
         elements,
-        section,
+        section=None,
+        sections=None,
         order=3,
         e2=None,
         twist_rate=0.0,
+        twist=None,
+        arc=None,
+        via=None,
         start_node=None,
         end_node=None,
         velocity=None,
         angular_velocity=None,
     ):
-        """A straight geometrically exact beam from `start` to `end` (or shared `start_node` /
-        `end_node`), meshed with `elements` elements of `order` 1, 2 or 3. `section` is a dict
-        of ea, ga2, ga3, gj, ei2, ei3, m, i22, i33 (and optional i23, tension_center,
-        shear_center). Its nodes are named `<name>.0` ... `<name>.N`."""
+        """A geometrically exact beam from `start` to `end` (or shared `start_node` /
+        `end_node`), meshed with `elements` elements of `order` 1, 2 or 3; its nodes are named
+        `<name>.0` ... `<name>.N`.
+
+        - `section`: a dict of ea, ga2, ga3, gj, ei2, ei3, m, i22, i33 (optional i23,
+          tension_center, shear_center), or {"stiffness": 6×6, "mass": 6×6}; or `sections`,
+          a list of {"eta": η, "section": ...} interpolated linearly along the span.
+        - Shape: straight by default; `arc={"center": c, "axis": a, "angle": rad}` (the end
+          follows from the start), or `via=[p1, p2, ...]` corner points of a polyline.
+        - Pre-twist: `twist_rate` (rad/m) or `twist={"eta": [...], "angle": [...]}` (rad).
+        - `e2`: the section's axis 2 at the start (projected normal to the beam).
+        """
+
+        def num(v):
+            if isinstance(v, dict):
+                return {k: num(x) for k, x in v.items()}
+            if hasattr(v, "__len__") and not isinstance(v, str):
+                return [num(x) for x in v]
+            return float(v)
+
         self.data["beams"].append(
             _drop_none(
                 {
@@ -117,11 +137,15 @@ class Model:
                     "end_node": end_node,
                     "elements": int(elements),
                     "order": int(order),
-                    "section": {
-                        k: (list(v) if hasattr(v, "__len__") else float(v)) for k, v in section.items()
-                    },
+                    "section": num(section) if section is not None else None,
+                    "sections": [{"eta": float(st["eta"]), "section": num(st["section"])} for st in sections]
+                    if sections is not None
+                    else None,
                     "e2": _vec(e2) if e2 is not None else None,
                     "twist_rate": float(twist_rate),
+                    "twist": num(twist) if twist is not None else None,
+                    "arc": num(arc) if arc is not None else None,
+                    "via": [_vec(p) for p in via] if via is not None else None,
                     "velocity": _vec(velocity) if velocity is not None else None,
                     "angular_velocity": _vec(angular_velocity) if angular_velocity is not None else None,
                 }

@@ -175,6 +175,26 @@ impl BeamElement {
         }
     }
 
+    /// Triad of Gauss point `g` at i (history) and at f (`cay(ρ_g) R_g,i`), for loads that
+    /// follow the sections.
+    pub fn gauss_triads<T: Real>(&self, ctx: &StepCtx, g: usize, y: &[T]) -> (M3<T>, M3<T>) {
+        let p = &self.points[g];
+        let per = Self::per(ctx);
+        let hist = &ctx.state.history[self.history + g * HISTORY_PER_POINT..];
+        let rg_i = M3::<T>::from_f64(&read_history(hist).0);
+        let mut rho = V3::<T>::zero();
+        for (a, &node) in self.nodes.iter().enumerate() {
+            let ri = M3::<T>::from_f64(&ctx.state.nodes[node].r);
+            rho += ri.mul_v(&v3(y, per * a + 3)).scale_f(p.h[a]);
+        }
+        (rg_i, cayley(&rho).mul_m(&rg_i))
+    }
+
+    /// Offset of node `a`'s increments `[Δx, r]` in the element's local block.
+    pub fn local_delta(&self, ctx: &StepCtx, a: usize) -> usize {
+        Self::per(ctx) * a
+    }
+
     /// Adds `weight · B^Dᵀ N` to the f-rows: the exact discrete gradient's transpose.
     /// `δe* = R_mᵀ(δx′ + x̃′_a δρ)` and `δκ = R_mᵀ H δρ′`, with `δρ^α` mapped to the material
     /// unknowns by `R^α_iᵀ`.
@@ -434,7 +454,7 @@ impl Kernel for BeamElement {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::beam::section::{Section, Shorthand};
     use crate::beam::shape::{gauss, lagrange, node_coordinates, reduced_points};
@@ -462,7 +482,7 @@ mod tests {
     }
 
     /// A deformed, stressed `n`-node element along x with generic nodal states and history.
-    fn fixture(n: usize, scheme: Scheme) -> (BeamElement, State, Layout) {
+    pub(crate) fn fixture(n: usize, scheme: Scheme) -> (BeamElement, State, Layout) {
         let layout = Layout::new(scheme, n, 0, 0);
         let zs = node_coordinates(n);
         let mut nodes = Vec::new();
@@ -515,7 +535,7 @@ mod tests {
         (el, state, layout)
     }
 
-    fn ctx<'a>(layout: Layout, state: &'a State) -> StepCtx<'a> {
+    pub(crate) fn ctx<'a>(layout: Layout, state: &'a State) -> StepCtx<'a> {
         StepCtx {
             layout,
             h: 0.01,

@@ -1,4 +1,8 @@
-//! Geometrically exact beams (issue 3): shape functions and sections so far.
+//! Geometrically exact beams: reference lines and section frames (`geometry`), sections,
+//! Lagrange shape functions and Gauss rules (`shape`), the element's discrete forces, and
+//! distributed loads that follow the sections (`line_load`).
 pub mod element;
+pub mod geometry;
+pub mod line_load;
 pub mod section;
 pub mod shape;

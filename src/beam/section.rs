@@ -43,6 +43,60 @@ pub struct Shorthand {
     pub shear_center: [f64; 2],
 }
 
+/// Full sectional matrices in the section frame (axis 1 along the beam), strains ordered
+/// `[e₁, γ₂, γ₃, κ₁, κ₂, κ₃]` and velocities `[v, ω]`; both symmetric positive definite.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Matrices {
+    /// 6×6 stiffness, rows of N (forces) and N·m (moments) per unit strain/curvature.
+    pub stiffness: Mat6,
+    /// 6×6 mass per unit length about the reference line.
+    pub mass: Mat6,
+}
+
+/// A beam's `section:`: the shorthand (`ea`, `ga2`, …), or full `stiffness` and `mass`
+/// matrices.
+#[derive(Serialize, JsonSchema, Clone, Debug, PartialEq)]
+#[serde(untagged)]
+pub enum SectionSpec {
+    Matrices(Matrices),
+    Shorthand(Shorthand),
+}
+
+impl<'de> Deserialize<'de> for SectionSpec {
+    /// Chooses the form by its keys, so that an error names the missing or wrong field of
+    /// the form the user meant rather than "matched no variant".
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        let v = serde_json::Value::deserialize(d)?;
+        let full = v.get("stiffness").is_some() || v.get("mass").is_some();
+        if full {
+            serde_json::from_value(v)
+                .map(SectionSpec::Matrices)
+                .map_err(D::Error::custom)
+        } else {
+            serde_json::from_value(v)
+                .map(SectionSpec::Shorthand)
+                .map_err(D::Error::custom)
+        }
+    }
+}
+
+impl From<Shorthand> for SectionSpec {
+    fn from(s: Shorthand) -> Self {
+        SectionSpec::Shorthand(s)
+    }
+}
+
+impl SectionSpec {
+    pub fn section(&self) -> Result<Section, String> {
+        match self {
+            SectionSpec::Shorthand(s) => Section::from_shorthand(s),
+            SectionSpec::Matrices(m) => Section::from_matrices(m.stiffness, m.mass),
+        }
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Section {
     pub stiffness: Mat6,
@@ -50,6 +104,49 @@ pub struct Section {
 }
 
 impl Section {
+    /// Mass per unit length.
+    pub fn mass_per_length(&self) -> f64 {
+        self.mass[0][0]
+    }
+
+    /// Mass moments of inertia per unit length about the reference line (section frame).
+    pub fn inertia_per_length(&self) -> M3<f64> {
+        M3(std::array::from_fn(|i| {
+            std::array::from_fn(|j| self.mass[3 + i][3 + j])
+        }))
+    }
+
+    /// Beam mass is lumped at nodes whose inertia has no translation–rotation coupling, so the
+    /// centre of mass must lie on the reference line (and the translational mass be isotropic).
+    pub fn check_lumpable(&self) -> Result<(), String> {
+        let m = self.mass[0][0];
+        let coupled = (0..3).any(|i| (0..3).any(|j| self.mass[i][3 + j].abs() > 1e-12 * m));
+        let iso = (0..3).all(|i| {
+            (0..3).all(|j| (self.mass[i][j] - if i == j { m } else { 0.0 }).abs() <= 1e-12 * m)
+        });
+        if coupled {
+            return Err("sections with an offset centre of mass are not supported yet (the mass matrix couples translation and rotation); put the centre of mass on the reference line".into());
+        }
+        if !iso {
+            return Err(
+                "the translational block of the mass matrix must be m·I (one mass per unit length)"
+                    .into(),
+            );
+        }
+        Ok(())
+    }
+
+    /// `(1 − w) a + w b`, entry by entry.
+    pub fn blend(a: &Section, b: &Section, w: f64) -> Section {
+        let mix = |x: &Mat6, y: &Mat6| -> Mat6 {
+            std::array::from_fn(|i| std::array::from_fn(|j| (1.0 - w) * x[i][j] + w * y[i][j]))
+        };
+        Section {
+            stiffness: mix(&a.stiffness, &b.stiffness),
+            mass: mix(&a.mass, &b.mass),
+        }
+    }
+
     /// From full matrices; both must be symmetric positive definite.
     pub fn from_matrices(stiffness: Mat6, mass: Mat6) -> Result<Section, String> {
         check_spd(&stiffness, "stiffness")?;

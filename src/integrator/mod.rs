@@ -69,6 +69,7 @@ pub struct Integrator {
     spring_pos: Vec<Vec<usize>>,
     drive_pos: Vec<Vec<usize>>,
     load_pos: Vec<Vec<usize>>,
+    line_load_pos: Vec<Vec<usize>>,
     y: Vec<f64>,
     res: Vec<f64>,
     pub tol: f64,
@@ -88,10 +89,12 @@ impl Integrator {
         blocks.extend(sys.springs.iter().map(|k| k.unknowns()));
         blocks.extend(sys.drives.iter().map(|k| k.unknowns()));
         blocks.extend(sys.loads.iter().map(|k| k.unknowns()));
+        blocks.extend(sys.line_loads.iter().map(|k| k.unknowns()));
         let n = sys.layout.n_unknowns();
         // Only the structurally nonzero entries enter the pattern: less fill, faster LU.
         let masks = Self::block_masks(sys, settings.dt);
         let (matrix, mut pos) = NewtonMatrix::from_blocks(n, &blocks, Some(&masks));
+        let line_load_pos = pos.split_off(pos.len() - sys.line_loads.len());
         let load_pos = pos.split_off(pos.len() - sys.loads.len());
         let drive_pos = pos.split_off(pos.len() - sys.drives.len());
         let spring_pos = pos.split_off(pos.len() - sys.springs.len());
@@ -105,6 +108,7 @@ impl Integrator {
             spring_pos,
             drive_pos,
             load_pos,
+            line_load_pos,
             y: vec![0.0; n],
             res: vec![0.0; n],
             tol: settings.newton_tol,
@@ -115,7 +119,7 @@ impl Integrator {
     }
 
     /// Structure of every kernel's tangent block, in kernel order (inertias, beams, joints,
-    /// springs, drives, loads): the union of the nonzeros at two generic states (nodes rotated and moving,
+    /// springs, drives, loads, line loads): the union of the nonzeros at two generic states (nodes rotated and moving,
     /// coordinates and multipliers nonzero), so that no entry is missed because the initial
     /// configuration happens to be aligned with the axes.
     pub fn block_masks(sys: &System, h: f64) -> Vec<Vec<bool>> {
@@ -168,6 +172,7 @@ impl Integrator {
             all.extend(sys.springs.iter().map(|k| block_structure(k, &ctx, &y)));
             all.extend(sys.drives.iter().map(|k| block_structure(k, &ctx, &y)));
             all.extend(sys.loads.iter().map(|k| block_structure(k, &ctx, &y)));
+            all.extend(sys.line_loads.iter().map(|k| block_structure(k, &ctx, &y)));
             if masks.is_empty() {
                 masks = all;
             } else {
@@ -254,6 +259,7 @@ impl Integrator {
         run!(sys.springs, self.spring_pos);
         run!(sys.drives, self.drive_pos);
         run!(sys.loads, self.load_pos);
+        run!(sys.line_loads, self.line_load_pos);
         if with_jacobian && self.matrix.outside_pattern() > 1e-10 {
             // A tangent entry the structure detection judged zero is not: the tangent is
             // incomplete (slower convergence, same solution). Counted so tests can see it.
@@ -490,7 +496,12 @@ impl Integrator {
         report.drive_works = sys.drives.iter().map(|d| d.step_work(ctx, y)).collect();
         report.drive_work = report.drive_works.iter().sum();
         report.drive_forces = sys.drives.iter().map(|d| d.force(ctx, y)).collect();
-        report.external_work = sys.loads.iter().map(|l| l.step_work(ctx, y)).sum();
+        report.external_work = sys.loads.iter().map(|l| l.step_work(ctx, y)).sum::<f64>()
+            + sys
+                .line_loads
+                .iter()
+                .map(|l| l.step_work(ctx, y))
+                .sum::<f64>();
         report.damper_work = sys
             .springs
             .iter()

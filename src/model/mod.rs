@@ -93,7 +93,8 @@ pub struct RigidBody {
     pub cm_offset: Vec3,
 }
 
-/// A straight geometrically exact beam meshed from `start` to `end`. Its nodes are named
+/// A geometrically exact beam meshed from `start` to `end`: straight, an `arc`, or a polyline
+/// through `via` points; pre-twisted by `twist_rate` or a `twist` table. Its nodes are named
 /// `<beam>.0` … `<beam>.N` (N = elements × order) unless `start_node`/`end_node` name existing
 /// nodes to share (with rigid bodies, joints or other beams).
 #[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
@@ -103,20 +104,26 @@ pub struct Beam {
     /// Start point, m (or give `start_node`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub start: Option<Vec3>,
-    /// End point, m (or give `end_node`).
+    /// End point, m (or give `end_node`); optional for an arc, whose end it must match.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub end: Option<Vec3>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub start_node: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub end_node: Option<String>,
-    /// Number of elements.
+    /// Number of elements (for a polyline, shared among its segments by length, at least one
+    /// each).
     pub elements: usize,
     /// Element order: 1 linear (2 nodes), 2 quadratic (3 nodes), 3 cubic (4 nodes).
     #[serde(default = "default_order")]
     pub order: usize,
-    /// Sectional properties (`beam::section::Shorthand`).
-    pub section: crate::beam::section::Shorthand,
+    /// Sectional properties, uniform along the span (or give `sections`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub section: Option<crate::beam::section::SectionSpec>,
+    /// Sections at stations along the span, interpolated linearly between them; the first
+    /// station at eta = 0, the last at eta = 1.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub sections: Vec<SectionStation>,
     /// Direction of the section's axis 2 at the start (projected normal to the beam axis);
     /// defaults to a direction normal to the axis.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -124,6 +131,16 @@ pub struct Beam {
     /// Constant pre-twist rate k₁, rad/m: the section frame turns about the axis along the span.
     #[serde(default)]
     pub twist_rate: f64,
+    /// Pre-twist as a table of section angles about the beam axis (rad, relative to `e2`
+    /// carried along the beam) at fractions of its length, interpolated linearly.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub twist: Option<TwistTable>,
+    /// A circular arc from the start point, turning by `angle` about `axis` through `center`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub arc: Option<ArcSpec>,
+    /// Corner points of a polyline from start to end, m.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub via: Vec<Vec3>,
     /// Initial rigid-body motion of the beam's own nodes: velocity of the start point (m/s) and
     /// angular velocity (rad/s), inertial frame. Shared end nodes keep their own.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -132,13 +149,45 @@ pub struct Beam {
     pub angular_velocity: Option<Vec3>,
 }
 
+/// A section at a station along a beam.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct SectionStation {
+    /// Fraction of the beam length.
+    pub eta: f64,
+    pub section: crate::beam::section::SectionSpec,
+}
+
+/// Section angle θ(η) about the beam axis, rad, piecewise linear in η.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct TwistTable {
+    /// Fractions of the beam length, increasing from 0 to 1.
+    pub eta: Vec<f64>,
+    /// Angles at those stations, rad.
+    pub angle: Vec<f64>,
+}
+
+/// A circular arc.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct ArcSpec {
+    /// Centre of the circle, m.
+    pub center: Vec3,
+    /// Unit normal of the arc's plane; the arc turns right-handedly about it.
+    pub axis: Vec3,
+    /// Angle swept, rad (0 < |angle| ≤ 2π; negative turns the other way).
+    pub angle: f64,
+}
+
 fn default_order() -> usize {
     3
 }
 
 impl Beam {
-    /// Reference length, if the end points are known (given, or nodes of `model`).
-    pub fn length(&self, model: &Model) -> Option<f64> {
+    /// The start and end points, if known (given, or nodes of `model`); an arc's end follows
+    /// from its start.
+    pub fn end_points(&self, model: &Model) -> Option<(Vec3, Vec3)> {
         let at = |p: &Option<Vec3>, n: &Option<String>| -> Option<Vec3> {
             p.or_else(|| {
                 n.as_ref().and_then(|n| {
@@ -150,11 +199,22 @@ impl Beam {
                 })
             })
         };
-        let (a, b) = (
-            at(&self.start, &self.start_node)?,
-            at(&self.end, &self.end_node)?,
-        );
-        Some(((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt())
+        let a = at(&self.start, &self.start_node)?;
+        let b = match &self.arc {
+            Some(arc) => crate::beam::geometry::arc_end(a, arc),
+            None => at(&self.end, &self.end_node)?,
+        };
+        Some((a, b))
+    }
+
+    /// Reference length along the beam's line, if its end points are known.
+    pub fn length(&self, model: &Model) -> Option<f64> {
+        let (a, b) = self.end_points(model)?;
+        Some(
+            crate::beam::geometry::ReferenceLine::new(self, a, b)
+                .ok()?
+                .length(),
+        )
     }
 
     /// Nodes along the beam: elements × order + 1.

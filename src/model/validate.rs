@@ -240,7 +240,13 @@ impl Model {
                 ("end", &b.end, &b.end_node),
             ] {
                 match (point, node) {
-                    (Some(_), Some(_)) | (None, None) => c.err(
+                    (Some(_), Some(_)) => c.err(
+                        format!("{p}.{field}"),
+                        format!("beam `{name}`: give only one of `{field}` and `{field}_node`"),
+                    ),
+                    // An arc's end follows from its start, angle and axis.
+                    (None, None) if field == "end" && b.arc.is_some() => {}
+                    (None, None) => c.err(
                         format!("{p}.{field}"),
                         format!("beam `{name}`: give exactly one of `{field}` and `{field}_node`"),
                     ),
@@ -267,15 +273,29 @@ impl Model {
                     format!("beam `{name}`: order must be 1 (linear), 2 (quadratic) or 3 (cubic), got {}", b.order),
                 );
             }
-            if let Err(e) = crate::beam::section::Section::from_shorthand(&b.section) {
-                c.err(format!("{p}.section"), format!("beam `{name}`: {e}"));
-            }
-            if b.section.cm_offset != [0.0; 2] {
-                // Beam mass is lumped at the nodes, whose inertia kernel has no v–ω coupling.
-                c.err(
-                    format!("{p}.section.cm_offset"),
-                    format!("beam `{name}`: sections with an offset centre of mass are not supported yet; remove cm_offset"),
-                );
+            let check_section =
+                |c: &mut Checker, path: String, spec: &crate::beam::section::SectionSpec| match spec
+                    .section()
+                    .and_then(|s| s.check_lumpable())
+                {
+                    Err(e) => c.err(path, format!("beam `{name}`: {e}")),
+                    Ok(()) => {}
+                };
+            match (&b.section, b.sections.is_empty()) {
+                (Some(_), false) | (None, true) => c.err(
+                    format!("{p}.section"),
+                    format!("beam `{name}`: give either `section` (uniform) or `sections` (stations along the span)"),
+                ),
+                (Some(spec), true) => check_section(&mut c, format!("{p}.section"), spec),
+                (None, false) => {
+                    let etas: Vec<f64> = b.sections.iter().map(|st| st.eta).collect();
+                    if let Err(e) = stations(&etas) {
+                        c.err(format!("{p}.sections"), format!("beam `{name}`: section stations {e}"));
+                    }
+                    for (k, st) in b.sections.iter().enumerate() {
+                        check_section(&mut c, format!("{p}.sections[{k}].section"), &st.section);
+                    }
+                }
             }
             if let Some(e2) = &b.e2 {
                 c.vec3(format!("{p}.e2"), e2);
@@ -290,6 +310,50 @@ impl Model {
             }
             if !b.twist_rate.is_finite() {
                 c.err(format!("{p}.twist_rate"), "must be a finite number");
+            }
+            if let Some(t) = &b.twist {
+                if b.twist_rate != 0.0 {
+                    c.err(
+                        format!("{p}.twist"),
+                        format!(
+                            "beam `{name}`: give either `twist_rate` or a `twist` table, not both"
+                        ),
+                    );
+                }
+                if t.eta.len() != t.angle.len() || !t.angle.iter().all(|a| a.is_finite()) {
+                    c.err(format!("{p}.twist"), format!("beam `{name}`: `eta` and `angle` must be lists of finite numbers of the same length"));
+                } else if let Err(e) = stations(&t.eta) {
+                    c.err(
+                        format!("{p}.twist.eta"),
+                        format!("beam `{name}`: twist stations {e}"),
+                    );
+                }
+            }
+            if let Some(arc) = &b.arc {
+                c.vec3(format!("{p}.arc.center"), &arc.center);
+                c.vec3(format!("{p}.arc.axis"), &arc.axis);
+                if !b.via.is_empty() {
+                    c.err(
+                        format!("{p}.via"),
+                        format!("beam `{name}`: give either `arc` or `via` points, not both"),
+                    );
+                }
+            }
+            for (k, v) in b.via.iter().enumerate() {
+                c.vec3(format!("{p}.via[{k}]"), v);
+            }
+            if b.elements > 0 && b.elements < b.via.len() + 1 {
+                c.err(
+                    format!("{p}.elements"),
+                    format!("beam `{name}`: a polyline of {} segments needs at least one element per segment", b.via.len() + 1),
+                );
+            }
+            // The line itself (arc in its plane and reaching the end, no folds, no repeated
+            // points), once its end points are known.
+            if let Some((a, e)) = b.end_points(self) {
+                if let Err(msg) = crate::beam::geometry::ReferenceLine::new(b, a, e) {
+                    c.err(p.clone(), format!("beam `{name}`: {msg}"));
+                }
             }
         }
 
@@ -491,4 +555,22 @@ impl Model {
             Err(ModelErrors(c.errors))
         }
     }
+}
+
+/// Stations along a span: at least two, strictly increasing from 0 to 1.
+fn stations(eta: &[f64]) -> Result<(), String> {
+    if eta.len() < 2 {
+        return Err("need at least two entries (eta = 0 and eta = 1)".into());
+    }
+    if eta[0] != 0.0 || eta[eta.len() - 1] != 1.0 {
+        return Err(format!(
+            "must start at eta = 0 and end at eta = 1 (got {} … {})",
+            eta[0],
+            eta[eta.len() - 1]
+        ));
+    }
+    if !eta.windows(2).all(|w| w[1] > w[0]) {
+        return Err("must increase strictly".into());
+    }
+    Ok(())
 }

@@ -1,11 +1,12 @@
-//! Meshing a straight, possibly pre-twisted beam: nodes with their reference triads, lumped
-//! nodal inertia, and per element the Gauss points with their initial history.
+//! Meshing a beam along its reference line (straight, arc or polyline; pre-twisted): nodes with
+//! their reference triads, lumped nodal inertia, consistent load weights, and per element the
+//! Gauss points with their section, reference strains and initial history.
 
 use crate::beam::element::{write_history, GaussPoint, HISTORY_PER_POINT};
+use crate::beam::geometry::ReferenceLine;
 use crate::beam::section::Section;
 use crate::beam::shape::{gauss, lagrange, node_coordinates, reduced_points, MAX_NODES};
 use crate::model::Beam;
-use crate::rotation::exp_map;
 use crate::state::NodeState;
 use crate::vec3::{M3, V3};
 
@@ -25,9 +26,8 @@ pub struct BeamMesh {
     /// `∫ h_α ds` per node along the beam: a uniform load per unit length q lumps to `w_α q`
     /// (the consistent load vector).
     pub load_weights: Vec<f64>,
-    /// Reference section triad at each node along the beam (a shared node's own triad may
-    /// differ).
-    pub section_triads: Vec<M3<f64>>,
+    /// Arc-length span `(s_start, s_end)` of each element.
+    pub spans: Vec<(f64, f64)>,
     pub length: f64,
 }
 
@@ -42,9 +42,25 @@ fn lumping_weights(n: usize) -> &'static [f64] {
     }
 }
 
-/// Section triad at arc length s: columns `[t, e2, e3]`, turned by the pre-twist about t.
-fn triad(start: &M3<f64>, t: V3<f64>, twist_rate: f64, s: f64) -> M3<f64> {
-    exp_map(&t.scale_f(twist_rate * s)).mul_m(start)
+/// The section at arc length `s` of a beam of length `length`: its one section, or the
+/// linear blend of the stations around `s`.
+pub fn section_at(b: &Beam, length: f64, s: f64) -> Section {
+    if let Some(sec) = &b.section {
+        return sec.section().expect("validated section");
+    }
+    let eta = (s / length).clamp(0.0, 1.0);
+    let st = &b.sections;
+    let j = st
+        .windows(2)
+        .position(|w| eta <= w[1].eta)
+        .unwrap_or(st.len() - 2);
+    let (a, c) = (&st[j], &st[j + 1]);
+    let w = (eta - a.eta) / (c.eta - a.eta);
+    Section::blend(
+        &a.section.section().expect("validated section"),
+        &c.section.section().expect("validated section"),
+        w,
+    )
 }
 
 /// Adds the beam's nodes, inertia and elements. Validation has checked the input.
@@ -63,45 +79,37 @@ pub fn mesh(
         (None, Some(n)) => nodes[find(names, n)].x,
         _ => unreachable!("validated"),
     };
-    let end = match (&b.end, &b.end_node) {
-        (Some(p), _) => V3(*p),
-        (None, Some(n)) => nodes[find(names, n)].x,
+    let end = match (&b.end, &b.end_node, &b.arc) {
+        (_, _, Some(arc)) => V3(crate::beam::geometry::arc_end(start.0, arc)),
+        (Some(p), _, _) => V3(*p),
+        (None, Some(n), _) => nodes[find(names, n)].x,
         _ => unreachable!("validated"),
     };
-    let length = (end - start).norm();
-    let t = (end - start).scale_f(1.0 / length);
-    let trial = b.e2.map(V3).unwrap_or(if t.0[0].abs() < 0.9 {
-        V3([1.0, 0.0, 0.0])
-    } else {
-        V3([0.0, 1.0, 0.0])
-    });
-    let e2 = trial - t.scale_f(trial.dot(&t));
-    let e2 = e2.scale_f(1.0 / e2.norm());
-    let start_triad = M3::from_cols(t, e2, t.cross(&e2));
-    let section = Section::from_shorthand(&b.section).expect("validated section");
-    let j_section = M3([
-        [section.mass[3][3], section.mass[3][4], section.mass[3][5]],
-        [section.mass[4][3], section.mass[4][4], section.mass[4][5]],
-        [section.mass[5][3], section.mass[5][4], section.mass[5][5]],
-    ]);
-    let n_el = b.elements;
+    let line = ReferenceLine::new(b, start.0, end.0).expect("validated geometry");
+    let length = line.length();
+    let spans = line.element_spans(b.elements);
+    let n_el = spans.len();
     let nn = b.order + 1;
-    let le = length / n_el as f64;
     let zs = node_coordinates(nn);
+    // Arc length of local node `a` of element `e`, and its segment.
+    let node_s = |e: usize, a: usize| {
+        let (_, sa, sb) = spans[e];
+        sa + 0.5 * (zs[a] + 1.0) * (sb - sa)
+    };
     // Global node indices along the beam.
     let count = b.node_count();
     let mut ids = Vec::with_capacity(count);
     for k in 0..count {
+        let e = (k / b.order).min(n_el - 1);
+        let local = k - e * b.order;
+        let s = node_s(e, local);
+        let r = line.section_triad(spans[e].0, s);
         let name = b.node_name(k);
         if let Some(i) = names.iter().position(|x| *x == name) {
             ids.push(i);
             continue;
         }
-        let e = (k / b.order).min(n_el - 1);
-        let local = k - e * b.order;
-        let s = le * (e as f64 + 0.5 * (zs[local] + 1.0));
-        let x = start + t.scale_f(s);
-        let r = triad(&start_triad, t, b.twist_rate, s);
+        let x = line.point(spans[e].0, s);
         let omega = V3(b.angular_velocity.unwrap_or_default());
         let v = V3(b.velocity.unwrap_or_default()) + omega.cross(&(x - start));
         names.push(name);
@@ -116,44 +124,34 @@ pub fn mesh(
         inertia.push(M3::zero());
         ids.push(nodes.len() - 1);
     }
+    // Consistent load weights ∫ h_α ds (full Gauss integration, exact).
     let mut load_weights = vec![0.0; count];
-    let section_triads: Vec<M3<f64>> = (0..count)
-        .map(|k| {
-            let e = (k / b.order).min(n_el - 1);
-            let local = k - e * b.order;
-            triad(
-                &start_triad,
-                t,
-                b.twist_rate,
-                le * (e as f64 + 0.5 * (zs[local] + 1.0)),
-            )
-        })
-        .collect();
-    // Full Gauss integration of the shape functions (exact for straight elements).
     let (xl, wl) = gauss(nn);
-    for e in 0..n_el {
+    for (e, &(_, sa, sb)) in spans.iter().enumerate() {
         for (&xi, &wq) in xl.iter().zip(wl) {
             let (h, _) = lagrange(nn, xi);
             for a in 0..nn {
-                load_weights[e * b.order + a] += h[a] * wq * 0.5 * le;
+                load_weights[e * b.order + a] += h[a] * wq * 0.5 * (sb - sa);
             }
         }
     }
     let weights = lumping_weights(nn);
     let (xg, wg) = gauss(reduced_points(nn));
     let mut out = Vec::with_capacity(n_el);
-    for e in 0..n_el {
+    for (e, &(seg, sa, sb)) in spans.iter().enumerate() {
+        let le = sb - sa;
         let el_nodes: Vec<usize> = (0..nn).map(|a| ids[e * b.order + a]).collect();
         for (a, &id) in el_nodes.iter().enumerate() {
-            let s = le * (e as f64 + 0.5 * (zs[a] + 1.0));
+            let s = node_s(e, a);
             let w = weights[a] * le;
-            mass[id] += w * b.section.m;
+            let section = section_at(b, length, s);
+            mass[id] += w * section.mass_per_length();
             // Section inertia expressed in the node's own triad (a shared node may differ).
-            let q = nodes[id]
-                .r
-                .transpose()
-                .mul_m(&triad(&start_triad, t, b.twist_rate, s));
-            inertia[id] = inertia[id] + q.mul_m(&j_section).mul_m(&q.transpose()).scale_f(w);
+            let q = nodes[id].r.transpose().mul_m(&line.section_triad(seg, s));
+            inertia[id] = inertia[id]
+                + q.mul_m(&section.inertia_per_length())
+                    .mul_m(&q.transpose())
+                    .scale_f(w);
         }
         let mut points = Vec::new();
         let mut history = Vec::new();
@@ -164,16 +162,16 @@ pub fn mesh(
             for a in 0..nn {
                 dh[a] = dxi[a] / jac;
             }
-            let s = le * (e as f64 + 0.5 * (xi + 1.0));
-            let rg = triad(&start_triad, t, b.twist_rate, s);
-            // The interpolated reference tangent (t for a straight beam) sets e₀ so the
-            // reference configuration is strain free; the pre-twist is the reference curvature.
+            let s = sa + 0.5 * (xi + 1.0) * le;
+            let rg = line.section_triad(seg, s);
+            // The interpolated reference tangent sets e₀ so that the reference configuration
+            // is strain free (it differs from t on curved lines by the interpolation error).
             let mut xp = V3::zero();
             for a in 0..nn {
                 xp += nodes[el_nodes[a]].x.scale_f(dh[a]);
             }
             let e0 = rg.tmul_v(&xp) - V3([1.0, 0.0, 0.0]);
-            let k0 = V3([b.twist_rate, 0.0, 0.0]);
+            let k0 = line.curvature(seg, s);
             let mut hist = [0.0; HISTORY_PER_POINT];
             write_history(&mut hist, &rg, &k0);
             history.extend_from_slice(&hist);
@@ -182,7 +180,7 @@ pub fn mesh(
                 weight: wq * jac,
                 h,
                 dh,
-                stiffness: section.stiffness,
+                stiffness: section_at(b, length, s).stiffness,
                 e0,
                 k0,
             });
@@ -198,7 +196,7 @@ pub fn mesh(
         elements: out,
         nodes: ids,
         load_weights,
-        section_triads,
+        spans: spans.iter().map(|&(_, a, b)| (a, b)).collect(),
         length,
     }
 }

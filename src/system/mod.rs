@@ -6,6 +6,7 @@ pub mod layout;
 pub mod sparse;
 
 use crate::beam::element::BeamElement;
+use crate::beam::line_load::FollowerLineLoad;
 use crate::elements::coordinate::{CoordinateDrive, CoordinateSpring};
 use crate::elements::inertia::NodeInertia;
 use crate::elements::loads::{LoadKind, PointLoad};
@@ -27,6 +28,25 @@ pub struct BeamInfo {
     pub count: usize,
     /// Reference length, m.
     pub length: f64,
+    /// Arc-length span of each element.
+    pub spans: Vec<(f64, f64)>,
+}
+
+impl BeamInfo {
+    /// The element (global index) and parent coordinate ξ of the station at arc length `s`.
+    /// A station on an element boundary belongs to the element after it.
+    pub fn locate(&self, s: f64) -> (usize, f64) {
+        let s = s.clamp(0.0, self.length);
+        let tol = 1e-9 * self.length;
+        let e = self
+            .spans
+            .iter()
+            .position(|&(_, b)| s < b - tol)
+            .unwrap_or(self.count - 1);
+        let (a, b) = self.spans[e];
+        let xi = (2.0 * (s - a) / (b - a) - 1.0).clamp(-1.0, 1.0);
+        (self.first + e, xi)
+    }
 }
 
 /// What a model joint became: its kernel and, for a revolute, its coordinate, drive and spring.
@@ -55,6 +75,8 @@ pub struct System {
     pub springs: Vec<CoordinateSpring>,
     pub drives: Vec<CoordinateDrive>,
     pub loads: Vec<PointLoad>,
+    /// Distributed loads following a beam's sections, one kernel per element.
+    pub line_loads: Vec<FollowerLineLoad>,
     pub gravity: V3<f64>,
     pub initial: State,
     /// Mean nodal mass, for the multiplier scaling `s = m_ref/h²`.
@@ -192,6 +214,7 @@ impl System {
                     first: *first,
                     count: meshed.elements.len(),
                     length: meshed.length,
+                    spans: meshed.spans.clone(),
                 };
                 *first += meshed.elements.len();
                 Some(info)
@@ -406,6 +429,7 @@ impl System {
 
         // Loads; a distributed load becomes one point load per node of its beam.
         let mut loads = Vec::new();
+        let mut line_loads = Vec::new();
         for (i, l) in model.loads.iter().enumerate() {
             let scale = l
                 .scale()
@@ -427,6 +451,23 @@ impl System {
                     scale,
                     &layout,
                 )),
+                model::Load::DistributedForce(d) | model::Load::DistributedMoment(d)
+                    if d.follower =>
+                {
+                    let info = beam_info
+                        .iter()
+                        .find(|b| b.name == d.beam)
+                        .expect("validated");
+                    for e in info.first..info.first + info.count {
+                        line_loads.push(FollowerLineLoad {
+                            name: d.name.clone(),
+                            element: beams[e].clone(),
+                            kind,
+                            value,
+                            scale: scale.clone(),
+                        });
+                    }
+                }
                 model::Load::DistributedForce(d) | model::Load::DistributedMoment(d) => {
                     let bi = model
                         .beams
@@ -435,18 +476,12 @@ impl System {
                         .expect("validated");
                     let m = &beam_meshes[bi];
                     for (k, &node) in m.nodes.iter().enumerate() {
-                        // A follower value is given in the section frame; the node's own triad
-                        // may differ (a shared node), so express it there.
-                        let v = if d.follower {
-                            nodes[node].r.tmul_v(&m.section_triads[k].mul_v(&value))
-                        } else {
-                            value
-                        };
+                        let v = value;
                         loads.push(PointLoad::new(
                             node,
                             kind,
                             v.scale_f(m.load_weights[k]),
-                            d.follower,
+                            false,
                             scale.clone(),
                             &layout,
                         ));
@@ -495,6 +530,7 @@ impl System {
             springs,
             drives: drive_kernels,
             loads,
+            line_loads,
             gravity: V3(model.gravity),
             initial,
             mass_ref,
