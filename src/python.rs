@@ -104,6 +104,27 @@ impl PySimulation {
         })
     }
 
+    /// Static analysis only: (K[n, n], M[n, n], labels) linearized about the current state
+    /// (see `Simulation::linearize`).
+    fn linearize<'py>(
+        &mut self,
+        py: Python<'py>,
+    ) -> PyResult<(
+        Bound<'py, PyArray2<f64>>,
+        Bound<'py, PyArray2<f64>>,
+        Vec<String>,
+    )> {
+        if !self.sim.is_static() {
+            return Err(ModelError::new_err(
+                "linearize: the model's simulation.analysis must be \"static\"",
+            ));
+        }
+        let (n, k, m, labels) = self.sim.linearize();
+        let k = PyArray1::from_vec(py, k).reshape([n, n])?;
+        let m = PyArray1::from_vec(py, m).reshape([n, n])?;
+        Ok((k, m, labels))
+    }
+
     #[getter]
     fn is_static(&self) -> bool {
         self.sim.is_static()

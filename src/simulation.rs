@@ -173,6 +173,48 @@ impl Simulation {
         Ok(())
     }
 
+    /// Linearization about the current (static) state for modal analysis: the static tangent
+    /// K and the mass matrix M (dense, row-major, n × n over the EP layout), and a label per
+    /// unknown: `<node>.<x|y|z|rx|ry|rz>` (rotations material), `coord:<name>`, or
+    /// `row:<owner>.<k>` for constraint rows (no mass; they border K with the constraint
+    /// gradients).
+    pub fn linearize(&mut self) -> (usize, Vec<f64>, Vec<f64>, Vec<String>) {
+        assert!(self.is_static(), "linearization needs a static analysis");
+        let sys = &self.system;
+        let lay = sys.layout;
+        let n = lay.n_unknowns();
+        let lf = if self.load_factor > 0.0 {
+            self.load_factor
+        } else {
+            1.0
+        };
+        let k = self.integrator.static_tangent(sys, &self.state, lf);
+        let mut m = vec![0.0; n * n];
+        for inertia in &sys.inertias {
+            let d = lay.node_delta(inertia.node);
+            for i in 0..3 {
+                m[(d + i) * n + d + i] += inertia.mass;
+                for j in 0..3 {
+                    m[(d + 3 + i) * n + d + 3 + j] += inertia.inertia.0[i][j];
+                }
+            }
+        }
+        let mut labels = vec![String::new(); n];
+        const COMP: [&str; 6] = ["x", "y", "z", "rx", "ry", "rz"];
+        for (a, name) in sys.node_names.iter().enumerate() {
+            for (c, comp) in COMP.iter().enumerate() {
+                labels[lay.node_delta(a) + c] = format!("{name}.{comp}");
+            }
+        }
+        for (c, name) in sys.coord_names.iter().enumerate() {
+            labels[lay.coord_delta(c)] = format!("coord:{name}");
+        }
+        for (r, (owner, k)) in sys.row_names.iter().enumerate() {
+            labels[lay.mult(r)] = format!("row:{owner}.{k}");
+        }
+        (n, k, m, labels)
+    }
+
     /// Load factor reached by a static analysis (0 before it starts, 1 when done).
     pub fn load_factor(&self) -> f64 {
         self.load_factor

@@ -314,6 +314,7 @@ def test_statics_of_an_unrestrained_beam_is_a_clear_error():
     m = fd.Model()
     m.beam("b", [0, 0, 0], [1, 0, 0], elements=2, order=1, section=section())
     m.force("p", "b.2", [0, 1.0, 0])
-    with pytest.raises(fd.SolverError, match="resisted neither by stiffness nor by joints") as e:
+    # No equilibrium exists: Newton (regularized) runs off, load halvings cannot help.
+    with pytest.raises(fd.SolverError, match="lacks a restraint against a rigid-body motion") as e:
         fd.solve_static(m)
     assert e.value.results.sizes["load_factor"] == 1  # the unloaded state is kept

@@ -10,6 +10,7 @@ time integration (Bauchau & Bottasso 2001).
 from ._core import FlexdynError, ModelError, SolverError
 from ._core import schema as _schema
 from .builder import Model, load
+from .modes import modes
 from .results import open_results, simulate, solve_static
 
 __all__ = [
@@ -18,6 +19,7 @@ __all__ = [
     "ModelError",
     "SolverError",
     "load",
+    "modes",
     "open_results",
     "schema",
     "simulate",

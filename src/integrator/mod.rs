@@ -354,6 +354,47 @@ impl Integrator {
         Ok(self.commit(sys, &ctx, report))
     }
 
+    /// The static tangent at `state` (dense, row-major over the EP layout): the stiffness of
+    /// elements, springs and follower loads with the geometric stiffness of the current
+    /// constraint forces, bordered by the constraint gradients (rows scaled by `s`).
+    pub fn static_tangent(&mut self, sys: &System, state: &State, load_factor: f64) -> Vec<f64> {
+        assert!(!sys.layout.ed(), "linearization uses the EP layout");
+        let s = Self::static_scaling(sys);
+        let ctx = StepCtx {
+            layout: sys.layout,
+            h: 1.0,
+            t_i: state.t,
+            t_f: state.t,
+            s,
+            state,
+            gravity: sys.gravity,
+            statics: Some(load_factor),
+        };
+        self.y.iter_mut().for_each(|v| *v = 0.0);
+        for r in 0..sys.layout.n_rows {
+            self.y[sys.layout.mult(r)] = state.lambda[r] / s;
+        }
+        self.assemble(sys, &ctx, true);
+        self.matrix.to_dense().into_iter().flatten().collect()
+    }
+
+    /// Statics: motions without stiffness in the current state (a pendulum before its
+    /// weight is applied, the spin of a rod on a ball joint) make the tangent singular. A
+    /// diagonal stiffness 1e-12 of the model's on every node that carries inertia keeps it
+    /// regular; it changes the Newton direction only, never the residual, so the
+    /// equilibrium is unchanged.
+    fn regularize_static(&mut self, sys: &System, ctx: &StepCtx) {
+        let k = 1e-12 * ctx.s;
+        let kr = k * sys.length_ref * sys.length_ref;
+        for inertia in &sys.inertias {
+            let d = sys.layout.node_delta(inertia.node);
+            for c in 0..6 {
+                self.matrix
+                    .add_to_diagonal(d + c, if c < 3 { k } else { kr });
+            }
+        }
+    }
+
     /// Newton's method on the assembled equations from the current unknowns.
     fn newton(&mut self, sys: &System, ctx: &StepCtx) -> Result<StepReport, StepFailure> {
         let layout = sys.layout;
@@ -368,6 +409,9 @@ impl Integrator {
         let mut f_ref = 0.0;
         for it in 0..=self.max_iter {
             self.assemble(sys, ctx, true);
+            if ctx.is_static() {
+                self.regularize_static(sys, ctx);
+            }
             let (rn, worst) = Self::inf_norm(&self.res);
             report.residuals.push(rn);
             if !rn.is_finite() {
@@ -419,8 +463,15 @@ impl Integrator {
             for a in 0..layout.n_nodes {
                 let d = layout.node_delta(a) + 3;
                 let r = V3([self.y[d], self.y[d + 1], self.y[d + 2]]);
-                check_step_rotation(&r)
-                    .map_err(|e| fail(format!("node `{}`: {e}", sys.node_names[a])))?;
+                check_step_rotation(&r).map_err(|e| {
+                    let node = &sys.node_names[a];
+                    if ctx.is_static() {
+                        let angle = 2.0 * (0.5 * r.norm()).atan().to_degrees();
+                        fail(format!("a Newton iteration turns node `{node}` by {angle:.1}° (limit 150°): use more load_steps, or the model lacks a restraint against a rigid-body motion under this load"))
+                    } else {
+                        fail(format!("node `{node}`: {e}"))
+                    }
+                })?;
             }
             report.iterations += 1;
         }

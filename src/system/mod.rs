@@ -245,7 +245,7 @@ impl System {
                 ));
             }
         }
-        let inertias = (0..nodes.len())
+        let inertias: Vec<NodeInertia> = (0..nodes.len())
             .filter(|&a| mass[a] > 0.0 || inertia[a].max_abs() > 0.0)
             .map(|a| NodeInertia::new(a, mass[a], inertia[a], &layout))
             .collect();

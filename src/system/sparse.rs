@@ -181,6 +181,18 @@ impl NewtonMatrix {
             .fold(f64::MIN_POSITIVE, |m, v| m.max(v.abs()))
     }
 
+    /// Adds `v` to diagonal entry `i` if the pattern holds it (returns whether it did).
+    pub fn add_to_diagonal(&mut self, i: usize, v: f64) -> bool {
+        let rows = &self.row_idx[self.col_ptr[i]..self.col_ptr[i + 1]];
+        match rows.binary_search(&i) {
+            Ok(p) => {
+                self.values[self.col_ptr[i] + p] += v;
+                true
+            }
+            Err(_) => false,
+        }
+    }
+
     /// Dense copy (for tests and diagnostics only).
     pub fn to_dense(&self) -> Vec<Vec<f64>> {
         let mut d = vec![vec![0.0; self.n]; self.n];
