@@ -3,9 +3,10 @@
 
 use crate::integrator::StepReport;
 use crate::model::{Model, Sensor};
-use crate::rotation::log_map;
+use crate::rotation::{exp_map, log_map};
 use crate::state::State;
 use crate::system::System;
+use crate::vec3::{M3, V3};
 
 #[derive(Clone, Debug)]
 enum Source {
@@ -18,8 +19,11 @@ enum Source {
     Drive(usize),
     Energy,
     Momentum,
-    /// Beam station: element index and parent coordinate ξ in it.
-    BeamSection(usize, f64),
+    /// Beam station: element index, parent coordinate ξ in it, and the reference section
+    /// triad there.
+    BeamSection(usize, f64, M3<f64>),
+    /// Beam energies: index in `System::beam_info`.
+    BeamEnergy(usize),
 }
 
 #[derive(Clone, Debug)]
@@ -174,18 +178,41 @@ impl Channels {
                         .expect("validated");
                     let s = eta.map_or(s.unwrap_or(0.0), |eta| eta * info.length);
                     let (e, xi) = info.locate(s);
+                    let b = model
+                        .beams
+                        .iter()
+                        .find(|b| &b.name == beam)
+                        .expect("validated");
+                    let (p0, p1) = b.end_points(model).expect("validated");
+                    let line = crate::beam::geometry::ReferenceLine::new(b, p0, p1)
+                        .expect("validated geometry");
+                    let r0 = line.section_triad(line.segment_at(s.min(info.length)), s);
                     add(
                         &mut c,
                         name,
                         &[
                             "F1", "F2", "F3", "M1", "M2", "M3", "e1", "g2", "g3", "k1", "k2", "k3",
-                            "x", "y", "z",
+                            "x", "y", "z", "phi1", "phi2", "phi3",
                         ],
                         &[
                             "N", "N", "N", "N*m", "N*m", "N*m", "1", "1", "1", "1/m", "1/m", "1/m",
-                            "m",
+                            "m", "m", "m", "rad",
                         ],
-                        Source::BeamSection(e, xi),
+                        Source::BeamSection(e, xi, r0),
+                    )
+                }
+                Sensor::BeamEnergy { beam, .. } => {
+                    let i = sys
+                        .beam_info
+                        .iter()
+                        .position(|b| &b.name == beam)
+                        .expect("validated");
+                    add(
+                        &mut c,
+                        name,
+                        &["kinetic", "strain"],
+                        &["J"],
+                        Source::BeamEnergy(i),
                     )
                 }
                 Sensor::Momentum { .. } => add(
@@ -247,7 +274,21 @@ impl Channels {
                         totals.per_drive_work.get(*d).copied().unwrap_or(0.0)
                     }
                 }
-                Source::BeamSection(e, xi) => beam_station(&sys.beams[*e], state, *xi, *k),
+                Source::BeamSection(e, xi, r0) => {
+                    if *k >= 15 {
+                        beam_rotation(&sys.beams[*e], sys, state, *xi, r0).0[k - 15]
+                    } else {
+                        beam_station(&sys.beams[*e], state, *xi, *k)
+                    }
+                }
+                Source::BeamEnergy(i) => {
+                    let (t, u) = sys.beam_energies(&sys.beam_info[*i], state);
+                    if *k == 0 {
+                        t
+                    } else {
+                        u
+                    }
+                }
                 Source::Momentum => {
                     let (p, h) = sys.momentum(state);
                     if *k < 3 {
@@ -316,4 +357,26 @@ fn beam_station(el: &crate::beam::element::BeamElement, state: &State, xi: f64, 
             w * pick(g)
         })
         .sum()
+}
+
+/// Rotation of the section at parent coordinate `xi` from its reference triad `r0`, as a
+/// rotation vector in the reference section frame. The nodes' rotations from their initial
+/// triads are interpolated relative to the element's first node (objective: a rigid rotation
+/// of the element adds nothing to the interpolation error), as rotation vectors.
+fn beam_rotation(
+    el: &crate::beam::element::BeamElement,
+    sys: &System,
+    state: &State,
+    xi: f64,
+    r0: &M3<f64>,
+) -> V3<f64> {
+    let (h, _) = crate::beam::shape::lagrange(el.nodes.len(), xi);
+    let delta = |n: usize| state.nodes[n].r.mul_m(&sys.initial.nodes[n].r.transpose());
+    let base = delta(el.nodes[0]);
+    let mut phi = V3::zero();
+    for (a, &n) in el.nodes.iter().enumerate() {
+        phi += log_map(&delta(n).mul_m(&base.transpose())).scale_f(h[a]);
+    }
+    let rot = exp_map(&phi).mul_m(&base);
+    r0.tmul_v(&log_map(&rot))
 }

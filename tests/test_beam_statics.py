@@ -318,3 +318,60 @@ def test_statics_of_an_unrestrained_beam_is_a_clear_error():
     with pytest.raises(fd.SolverError, match="lacks a restraint against a rigid-body motion") as e:
         fd.solve_static(m)
     assert e.value.results.sizes["load_factor"] == 1  # the unloaded state is kept
+
+
+def test_section_rotation_and_beam_energy_sensors():
+    # Tip moment M₃ and torque T: bending rotation φ₃(s) = M s/EI, twist φ₁(s) = T s/GJ,
+    # strain energy U = (M²/EI + T²/GJ) L/2. Small loads (rotations ~1e-4 rad): linear theory
+    # holds to ~1e-8.
+    length, ei, gj, moment, torque = 2.0, 1e4, 5e3, 0.5, 0.3
+    m = fd.Model()
+    m.beam(
+        "b",
+        [0, 0, 0],
+        [length, 0, 0],
+        elements=4,
+        order=3,
+        section=section(ei2=ei, ei3=ei, gj=gj),
+        e2=[0, 1, 0],
+    )
+    m.clamp("root", "ground", "b.0")
+    m.moment("m", "b.12", [torque, 0, moment])
+    for k, eta in enumerate([0.3, 0.8, 1.0]):
+        m.sensor("beam_section", f"s{k}", beam="b", eta=eta)
+    m.sensor("beam_energy", "energy", beam="b")
+    s = fd.solve_static(m).isel(load_factor=-1)
+    for k, eta in enumerate([0.3, 0.8, 1.0]):
+        assert float(s[f"s{k}.phi3"]) == pytest.approx(moment * eta * length / ei, rel=1e-6)
+        assert float(s[f"s{k}.phi1"]) == pytest.approx(torque * eta * length / gj, rel=1e-6)
+        # Only the second-order coupling φ₁φ₃/2 (~5e-10 here) shows about axis 2.
+        assert abs(float(s[f"s{k}.phi2"])) < float(s[f"s{k}.phi1"]) * float(s[f"s{k}.phi3"])
+    assert s["s0.phi1"].attrs["units"] == "rad"
+    strain = (moment**2 / ei + torque**2 / gj) * length / 2
+    assert float(s["energy.strain"]) == pytest.approx(strain, rel=1e-6)
+    assert float(s["energy.kinetic"]) == 0.0
+
+
+def test_beam_energies_add_up_to_the_system_energies():
+    # Two beams sharing a node, tumbling freely: their kinetic and strain energies add up to
+    # the model's (each shared node's inertia is split between the beams that lump to it).
+    m = fd.Model()
+    sec = section(ea=1e4, ga=5e3, gj=5.0, ei2=8.0, ei3=5.0)
+    m.node("joint", [1, 0, 0])
+    m.beam(
+        "a", [0, 0, 0], end_node="joint", elements=2, order=2, section=sec, angular_velocity=[0.3, 2.0, 1.0]
+    )
+    m.beam(
+        "b",
+        start_node="joint",
+        end=[1, 1, 0],
+        elements=2,
+        order=2,
+        section=sec,
+        angular_velocity=[0, 0, -3.0],
+    )
+    m.sensor("beam_energy", "ea", beam="a").sensor("beam_energy", "eb", beam="b").sensor("energy", "e")
+    s = fd.simulate(m, scheme="ep", dt=1e-3, t_end=0.05)
+    assert float(s["e.potential"][-1]) > 1e-6  # the beams are strained by the motion
+    np.testing.assert_allclose(s["ea.kinetic"] + s["eb.kinetic"], s["e.kinetic"], rtol=1e-12)
+    np.testing.assert_allclose(s["ea.strain"] + s["eb.strain"], s["e.potential"], rtol=1e-12, atol=1e-15)

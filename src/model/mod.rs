@@ -477,7 +477,9 @@ pub enum Sensor {
     /// At a station of a beam (`eta`: fraction of its length, or `s`: arc length): sectional forces
     /// `.F1 .F2 .F3` (N) and moments `.M1 .M2 .M3` (N·m) in the deformed section frame (axis 1
     /// along the beam), strains `.e1 .g2 .g3` and curvatures `.k1 .k2 .k3` (1/m) relative to the
-    /// reference, and the position `.x .y .z` (m). Recovered from the Gauss points.
+    /// reference (recovered from the Gauss points), the position `.x .y .z` (m), and the
+    /// rotation of the section from its reference as a rotation vector in the reference
+    /// section frame: `.phi1` (twist about the beam axis), `.phi2 .phi3` (bending), rad.
     BeamSection {
         name: String,
         beam: String,
@@ -488,6 +490,8 @@ pub enum Sensor {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         s: Option<f64>,
     },
+    /// A beam's own `.kinetic` and `.strain` energy, J.
+    BeamEnergy { name: String, beam: String },
     /// Total linear momentum `.px .py .pz` (N·s) and angular momentum about the origin
     /// `.Hx .Hy .Hz` (N·m·s), inertial frame.
     Momentum { name: String },
@@ -504,6 +508,7 @@ impl Sensor {
             | Sensor::JointReaction { name, .. }
             | Sensor::DriveForce { name, .. }
             | Sensor::BeamSection { name, .. }
+            | Sensor::BeamEnergy { name, .. }
             | Sensor::Energy { name }
             | Sensor::Momentum { name } => name,
         }

@@ -496,6 +496,11 @@ impl Model {
                     }
                 }
                 Sensor::Energy { .. } | Sensor::Momentum { .. } => {}
+                Sensor::BeamEnergy { beam, .. } => {
+                    if !self.beams.iter().any(|b| &b.name == beam) {
+                        c.err(format!("{p}.beam"), format!("refers to beam `{beam}`, which is not defined in `beams`"));
+                    }
+                }
                 Sensor::BeamSection { beam, eta, s, .. } => {
                     let b = self.beams.iter().find(|b| &b.name == beam);
                     if b.is_none() {

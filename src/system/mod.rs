@@ -30,6 +30,8 @@ pub struct BeamInfo {
     pub length: f64,
     /// Arc-length span of each element.
     pub spans: Vec<(f64, f64)>,
+    /// The beam's own lumped inertia: (node, mass, material inertia).
+    pub inertia: Vec<(usize, f64, M3<f64>)>,
 }
 
 impl BeamInfo {
@@ -143,7 +145,10 @@ impl System {
         let mut mass = vec![0.0; nodes.len()];
         let mut inertia = vec![M3::<f64>::zero(); nodes.len()];
         let mut beam_meshes: Vec<beam_mesh::BeamMesh> = Vec::new();
+        // Each beam's own share of the lumped inertia (for its kinetic-energy sensor).
+        let mut beam_inertia: Vec<Vec<(usize, f64, M3<f64>)>> = Vec::new();
         for b in &model.beams {
+            let (m0, j0) = (mass.clone(), inertia.clone());
             beam_meshes.push(beam_mesh::mesh(
                 b,
                 &mut node_names,
@@ -152,6 +157,15 @@ impl System {
                 &mut mass,
                 &mut inertia,
             ));
+            beam_inertia.push(
+                (0..mass.len())
+                    .filter_map(|a| {
+                        let dm = mass[a] - m0.get(a).copied().unwrap_or(0.0);
+                        let dj = inertia[a] - j0.get(a).copied().unwrap_or(M3::zero());
+                        (dm > 0.0).then_some((a, dm, dj))
+                    })
+                    .collect(),
+            );
         }
         let index: HashMap<String, usize> = node_names
             .iter()
@@ -215,11 +229,16 @@ impl System {
                     count: meshed.elements.len(),
                     length: meshed.length,
                     spans: meshed.spans.clone(),
+                    inertia: Vec::new(),
                 };
                 *first += meshed.elements.len();
                 Some(info)
             })
             .collect();
+        let mut beam_info = beam_info;
+        for (info, bi) in beam_info.iter_mut().zip(beam_inertia) {
+            info.inertia = bi;
+        }
         for m in beam_meshes.iter_mut().flat_map(|m| m.elements.drain(..)) {
             beams.push(BeamElement::new(
                 m.name,
@@ -557,6 +576,24 @@ impl System {
                 0.5 * k.mass * n.v.norm_sq() + 0.5 * n.w.dot(&k.inertia.mul_v(&n.w))
             })
             .sum()
+    }
+
+    /// Kinetic and strain energy of one beam (its share of the lumped inertia; the strain
+    /// energy of its elements).
+    pub fn beam_energies(&self, info: &BeamInfo, s: &State) -> (f64, f64) {
+        let kinetic = info
+            .inertia
+            .iter()
+            .map(|(a, m, j)| {
+                let n = &s.nodes[*a];
+                0.5 * m * n.v.norm_sq() + 0.5 * n.w.dot(&j.mul_v(&n.w))
+            })
+            .sum();
+        let strain = self.beams[info.first..info.first + info.count]
+            .iter()
+            .map(|b| b.strain_energy(s))
+            .sum();
+        (kinetic, strain)
     }
 
     /// Linear momentum and angular momentum about the origin, `Σ m v` and `Σ x × m v + R J W`.
