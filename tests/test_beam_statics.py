@@ -375,3 +375,21 @@ def test_beam_energies_add_up_to_the_system_energies():
     assert float(s["e.potential"][-1]) > 1e-6  # the beams are strained by the motion
     np.testing.assert_allclose(s["ea.kinetic"] + s["eb.kinetic"], s["e.kinetic"], rtol=1e-12)
     np.testing.assert_allclose(s["ea.strain"] + s["eb.strain"], s["e.potential"], rtol=1e-12, atol=1e-15)
+
+
+def test_offset_centre_of_mass_twists_a_cantilever_under_gravity():
+    # Centre of mass at x₂ = d from the reference line: the weight m g per unit length acts
+    # there, a torque −m g d per unit length about the axis: tip twist −m g d L²/(2GJ), and the
+    # bending deflection m g L⁴/(8EI) (+ m g L²/(2GA)).
+    length, g, mass, d, gj, ei, ga = 2.0, 9.81, 3.0, 0.05, 2e3, 1e5, 1e8
+    sec = {**section(gj=gj, ei2=ei, ei3=ei, ga=ga, m=mass), "cm_offset": [d, 0.0]}
+    m = fd.Model("offset", gravity=[0, 0, -g])
+    m.beam("b", [0, 0, 0], [length, 0, 0], elements=4, order=3, section=sec, e2=[0, 1, 0])
+    m.clamp("root", "ground", "b.0")
+    m.sensor("beam_section", "tip", beam="b", eta=1.0).sensor("node_displacement", "tip_u", node="b.12")
+    s = fd.solve_static(m).isel(load_factor=-1)
+    q = mass * g
+    assert float(s["tip.phi1"]) == pytest.approx(-q * d * length**2 / (2 * gj), rel=1e-5)
+    assert float(s["tip_u.z"]) == pytest.approx(
+        -(q * length**4 / (8 * ei) + q * length**2 / (2 * ga)), rel=1e-4
+    )

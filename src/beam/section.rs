@@ -116,16 +116,36 @@ impl Section {
         }))
     }
 
-    /// Beam mass is lumped at nodes whose inertia has no translation–rotation coupling, so the
-    /// centre of mass must lie on the reference line (and the translational mass be isotropic).
+    /// Centre of mass relative to the reference line, section frame: from the coupling block
+    /// `m c̃` of the mass matrix.
+    pub fn cm_offset(&self) -> V3<f64> {
+        let m = self.mass[0][0];
+        V3([
+            self.mass[5][1] / m,
+            self.mass[3][2] / m,
+            self.mass[4][0] / m,
+        ])
+    }
+
+    /// Beam mass is lumped at nodes as a point mass with inertia (at the centre of mass), so
+    /// the translational block must be one mass per unit length times the identity, and the
+    /// coupling block a cross product (`m c̃`).
     pub fn check_lumpable(&self) -> Result<(), String> {
         let m = self.mass[0][0];
-        let coupled = (0..3).any(|i| (0..3).any(|j| self.mass[i][3 + j].abs() > 1e-12 * m));
         let iso = (0..3).all(|i| {
             (0..3).all(|j| (self.mass[i][j] - if i == j { m } else { 0.0 }).abs() <= 1e-12 * m)
         });
-        if coupled {
-            return Err("sections with an offset centre of mass are not supported yet (the mass matrix couples translation and rotation); put the centre of mass on the reference line".into());
+        let c = self.cm_offset();
+        let mc = c.tilde().scale_f(m);
+        let scale = self
+            .mass
+            .iter()
+            .flatten()
+            .fold(0.0f64, |a, v| a.max(v.abs()));
+        let cross = (0..3)
+            .all(|i| (0..3).all(|j| (self.mass[3 + i][j] - mc.0[i][j]).abs() <= 1e-12 * scale));
+        if !cross {
+            return Err("the mass matrix's coupling block (rows 4–6, columns 1–3) must be m·c̃ for a centre of mass c".into());
         }
         if !iso {
             return Err(

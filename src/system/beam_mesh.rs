@@ -63,14 +63,30 @@ pub fn section_at(b: &Beam, length: f64, s: f64) -> Section {
     )
 }
 
+/// Lumped inertia per node, about the node and in its triad: mass, first moment of mass
+/// `Σ m c` (non-zero when sections have an offset centre of mass) and inertia tensor.
+#[derive(Clone, Debug, Default)]
+pub struct Lumped {
+    pub mass: Vec<f64>,
+    pub first_moment: Vec<V3<f64>>,
+    pub inertia: Vec<M3<f64>>,
+}
+
+impl Lumped {
+    pub fn push_node(&mut self) {
+        self.mass.push(0.0);
+        self.first_moment.push(V3::zero());
+        self.inertia.push(M3::zero());
+    }
+}
+
 /// Adds the beam's nodes, inertia and elements. Validation has checked the input.
 pub fn mesh(
     b: &Beam,
     names: &mut Vec<String>,
     nodes: &mut Vec<NodeState>,
     velocity_given: &mut Vec<bool>,
-    mass: &mut Vec<f64>,
-    inertia: &mut Vec<M3<f64>>,
+    lumped: &mut Lumped,
 ) -> BeamMesh {
     let find =
         |names: &Vec<String>, n: &str| names.iter().position(|x| x == n).expect("validated node");
@@ -120,8 +136,7 @@ pub fn mesh(
             w: r.tmul_v(&omega),
         });
         velocity_given.push(b.velocity.is_some() || b.angular_velocity.is_some());
-        mass.push(0.0);
-        inertia.push(M3::zero());
+        lumped.push_node();
         ids.push(nodes.len() - 1);
     }
     // Consistent load weights ∫ h_α ds (full Gauss integration, exact).
@@ -145,10 +160,12 @@ pub fn mesh(
             let s = node_s(e, a);
             let w = weights[a] * le;
             let section = section_at(b, length, s);
-            mass[id] += w * section.mass_per_length();
-            // Section inertia expressed in the node's own triad (a shared node may differ).
+            let m = w * section.mass_per_length();
+            // Section properties expressed in the node's own triad (a shared node may differ).
             let q = nodes[id].r.transpose().mul_m(&line.section_triad(seg, s));
-            inertia[id] = inertia[id]
+            lumped.mass[id] += m;
+            lumped.first_moment[id] += q.mul_v(&section.cm_offset()).scale_f(m);
+            lumped.inertia[id] = lumped.inertia[id]
                 + q.mul_m(&section.inertia_per_length())
                     .mul_m(&q.transpose())
                     .scale_f(w);

@@ -30,8 +30,8 @@ pub struct BeamInfo {
     pub length: f64,
     /// Arc-length span of each element.
     pub spans: Vec<(f64, f64)>,
-    /// The beam's own lumped inertia: (node, mass, material inertia).
-    pub inertia: Vec<(usize, f64, M3<f64>)>,
+    /// The beam's own lumped inertia.
+    pub inertia: Vec<BeamNodeInertia>,
 }
 
 impl BeamInfo {
@@ -49,6 +49,20 @@ impl BeamInfo {
         let xi = (2.0 * (s - a) / (b - a) - 1.0).clamp(-1.0, 1.0);
         (self.first + e, xi)
     }
+}
+
+/// A beam's share of a node's lumped inertia, about the node in its triad.
+#[derive(Clone, Debug)]
+pub struct BeamNodeInertia {
+    pub node: usize,
+    pub mass: f64,
+    pub first_moment: V3<f64>,
+    pub inertia: M3<f64>,
+}
+
+/// Size of a configuration, for relative tolerances.
+fn length_scale(nodes: &[NodeState]) -> f64 {
+    nodes.iter().map(|n| n.x.max_abs()).fold(1.0f64, f64::max)
 }
 
 /// What a model joint became: its kernel and, for a revolute, its coordinate, drive and spring.
@@ -89,6 +103,9 @@ pub struct System {
     pub force_ref: f64,
     /// Per node: whether the model gave its initial velocity (else zero, to be completed).
     pub velocity_given: Vec<bool>,
+    /// Per node whose mass was moved to an internal centre-of-mass node: that node and the
+    /// offset (carrier triad).
+    pub cm_node: Vec<Option<(usize, V3<f64>)>>,
 }
 
 fn orientation(o: &model::Orientation) -> M3<f64> {
@@ -142,37 +159,50 @@ impl System {
             velocity_given.push(n.velocity.is_some() || n.angular_velocity.is_some());
         }
         // Beams: their nodes (shared end nodes are reused), lumped inertia, and elements.
-        let mut mass = vec![0.0; nodes.len()];
-        let mut inertia = vec![M3::<f64>::zero(); nodes.len()];
+        let mut lumped = beam_mesh::Lumped::default();
+        for _ in 0..nodes.len() {
+            lumped.push_node();
+        }
         let mut beam_meshes: Vec<beam_mesh::BeamMesh> = Vec::new();
         // Each beam's own share of the lumped inertia (for its kinetic-energy sensor).
-        let mut beam_inertia: Vec<Vec<(usize, f64, M3<f64>)>> = Vec::new();
+        let mut beam_inertia: Vec<Vec<BeamNodeInertia>> = Vec::new();
         for b in &model.beams {
-            let (m0, j0) = (mass.clone(), inertia.clone());
+            let before = lumped.clone();
             beam_meshes.push(beam_mesh::mesh(
                 b,
                 &mut node_names,
                 &mut nodes,
                 &mut velocity_given,
-                &mut mass,
-                &mut inertia,
+                &mut lumped,
             ));
             beam_inertia.push(
-                (0..mass.len())
+                (0..lumped.mass.len())
                     .filter_map(|a| {
-                        let dm = mass[a] - m0.get(a).copied().unwrap_or(0.0);
-                        let dj = inertia[a] - j0.get(a).copied().unwrap_or(M3::zero());
-                        (dm > 0.0).then_some((a, dm, dj))
+                        let m = lumped.mass[a] - before.mass.get(a).copied().unwrap_or(0.0);
+                        (m > 0.0).then(|| BeamNodeInertia {
+                            node: a,
+                            mass: m,
+                            first_moment: lumped.first_moment[a]
+                                - before.first_moment.get(a).copied().unwrap_or(V3::zero()),
+                            inertia: lumped.inertia[a]
+                                - before.inertia.get(a).copied().unwrap_or(M3::zero()),
+                        })
                     })
                     .collect(),
             );
         }
+        let beam_mesh::Lumped {
+            mut mass,
+            first_moment,
+            mut inertia,
+        } = lumped;
         let index: HashMap<String, usize> = node_names
             .iter()
             .enumerate()
             .map(|(i, n)| (n.clone(), i))
             .collect();
-        // (body name, carrier node, cm node, offset) for bodies needing an internal clamp.
+        // (owner name, carrier node, cm node, offset) for masses whose centre is offset from
+        // their node: they sit on an internal node clamped to the carrier.
         let mut cm_links: Vec<(String, usize, usize, V3<f64>)> = Vec::new();
         for b in &model.bodies {
             let a = index[&b.node];
@@ -197,6 +227,37 @@ impl System {
                 inertia.push(j);
                 cm_links.push((b.name.clone(), a, nodes.len() - 1, c));
             }
+        }
+        // Beam nodes whose sections' centres of mass are offset: all of the node's mass moves
+        // to its combined centre of mass, with the inertia about it (parallel axes).
+        for (a, s1) in first_moment.iter().enumerate() {
+            let m = mass[a];
+            if m <= 0.0 || s1.norm() <= 1e-12 * m * length_scale(&nodes) {
+                continue;
+            }
+            let c = s1.scale_f(1.0 / m);
+            let j_cm = inertia[a] - (M3::identity().scale_f(c.norm_sq()) - c.outer(&c)).scale_f(m);
+            let na = nodes[a];
+            let arm = na.r.mul_v(&c);
+            let name = node_names[a].clone();
+            node_names.push(format!("{name}.cm"));
+            nodes.push(NodeState {
+                x: na.x + arm,
+                r: na.r,
+                v: na.v + na.omega().cross(&arm),
+                w: na.w,
+            });
+            velocity_given.push(velocity_given[a]);
+            mass.push(m);
+            inertia.push(j_cm);
+            mass[a] = 0.0;
+            inertia[a] = M3::zero();
+            cm_links.push((name, a, nodes.len() - 1, c));
+        }
+
+        let mut cm_node = vec![None; nodes.len()];
+        for (_, a, cm, c) in &cm_links {
+            cm_node[*a] = Some((*cm, *c));
         }
 
         // Count coordinates and rows to fix the layout.
@@ -556,6 +617,7 @@ impl System {
             length_ref,
             force_ref,
             velocity_given,
+            cm_node,
         })
     }
 
@@ -581,12 +643,33 @@ impl System {
     /// Kinetic and strain energy of one beam (its share of the lumped inertia; the strain
     /// energy of its elements).
     pub fn beam_energies(&self, info: &BeamInfo, s: &State) -> (f64, f64) {
+        // ½ m v² + v·(ω × R S) + ½ Wᵀ J W about the node carrying the mass (S: first moment
+        // of the beam's share about it). Where the node's mass sits on an internal
+        // centre-of-mass node, that node's motion is used, so that the beams' shares add up
+        // to the model's kinetic energy exactly.
         let kinetic = info
             .inertia
             .iter()
-            .map(|(a, m, j)| {
-                let n = &s.nodes[*a];
-                0.5 * m * n.v.norm_sq() + 0.5 * n.w.dot(&j.mul_v(&n.w))
+            .map(|b| {
+                let (at, first, j) = match self.cm_node[b.node] {
+                    None => (b.node, b.first_moment, b.inertia),
+                    Some((cm, c)) => {
+                        // Shift the share's first moment and inertia from the node to cm.
+                        let s_cm = b.first_moment - c.scale_f(b.mass);
+                        let cb = b.first_moment.scale_f(1.0 / b.mass);
+                        let own = b.inertia
+                            - (M3::identity().scale_f(cb.norm_sq()) - cb.outer(&cb))
+                                .scale_f(b.mass);
+                        let d = cb - c;
+                        let j_cm = own
+                            + (M3::identity().scale_f(d.norm_sq()) - d.outer(&d)).scale_f(b.mass);
+                        (cm, s_cm, j_cm)
+                    }
+                };
+                let n = &s.nodes[at];
+                0.5 * b.mass * n.v.norm_sq()
+                    + n.v.dot(&n.omega().cross(&n.r.mul_v(&first)))
+                    + 0.5 * n.w.dot(&j.mul_v(&n.w))
             })
             .sum();
         let strain = self.beams[info.first..info.first + info.count]
