@@ -192,11 +192,12 @@ impl Channels {
                         name,
                         &[
                             "F1", "F2", "F3", "M1", "M2", "M3", "e1", "g2", "g3", "k1", "k2", "k3",
-                            "x", "y", "z", "phi1", "phi2", "phi3",
+                            "x", "y", "z", "phi1", "phi2", "phi3", "ux", "uy", "uz", "rx", "ry",
+                            "rz",
                         ],
                         &[
                             "N", "N", "N", "N*m", "N*m", "N*m", "1", "1", "1", "1/m", "1/m", "1/m",
-                            "m", "m", "m", "rad",
+                            "m", "m", "m", "rad", "rad", "rad", "m", "m", "m", "rad",
                         ],
                         Source::BeamSection(e, xi, r0),
                     )
@@ -275,10 +276,15 @@ impl Channels {
                     }
                 }
                 Source::BeamSection(e, xi, r0) => {
-                    if *k >= 15 {
-                        beam_rotation(&sys.beams[*e], sys, state, *xi, r0).0[k - 15]
-                    } else {
-                        beam_station(&sys.beams[*e], state, *xi, *k)
+                    let el = &sys.beams[*e];
+                    match *k {
+                        15..=17 => r0.tmul_v(&beam_rotation(el, sys, state, *xi)).0[k - 15],
+                        18..=20 => {
+                            beam_station(el, state, *xi, k - 6)
+                                - beam_station(el, &sys.initial, *xi, k - 6)
+                        }
+                        21..=23 => beam_rotation(el, sys, state, *xi).0[k - 21],
+                        _ => beam_station(el, state, *xi, *k),
                     }
                 }
                 Source::BeamEnergy(i) => {
@@ -359,16 +365,15 @@ fn beam_station(el: &crate::beam::element::BeamElement, state: &State, xi: f64, 
         .sum()
 }
 
-/// Rotation of the section at parent coordinate `xi` from its reference triad `r0`, as a
-/// rotation vector in the reference section frame. The nodes' rotations from their initial
-/// triads are interpolated relative to the element's first node (objective: a rigid rotation
-/// of the element adds nothing to the interpolation error), as rotation vectors.
+/// Rotation of the section at parent coordinate `xi` from its reference, as a rotation
+/// vector (inertial frame). The nodes' rotations from their initial triads are interpolated
+/// relative to the element's first node (objective: a rigid rotation of the element adds
+/// nothing to the interpolation error), as rotation vectors.
 fn beam_rotation(
     el: &crate::beam::element::BeamElement,
     sys: &System,
     state: &State,
     xi: f64,
-    r0: &M3<f64>,
 ) -> V3<f64> {
     let (h, _) = crate::beam::shape::lagrange(el.nodes.len(), xi);
     let delta = |n: usize| state.nodes[n].r.mul_m(&sys.initial.nodes[n].r.transpose());
@@ -377,6 +382,5 @@ fn beam_rotation(
     for (a, &n) in el.nodes.iter().enumerate() {
         phi += log_map(&delta(n).mul_m(&base.transpose())).scale_f(h[a]);
     }
-    let rot = exp_map(&phi).mul_m(&base);
-    r0.tmul_v(&log_map(&rot))
+    log_map(&exp_map(&phi).mul_m(&base))
 }

@@ -339,8 +339,14 @@ def test_section_rotation_and_beam_energy_sensors():
     m.moment("m", "b.12", [torque, 0, moment])
     for k, eta in enumerate([0.3, 0.8, 1.0]):
         m.sensor("beam_section", f"s{k}", beam="b", eta=eta)
-    m.sensor("beam_energy", "energy", beam="b")
+    m.sensor("beam_energy", "energy", beam="b").sensor("node_displacement", "tip", node="b.12")
     s = fd.solve_static(m).isel(load_factor=-1)
+    # The station at the tip moves with the tip node; with the section frame along the
+    # inertial axes, the inertial rotation vector is (φ₁, φ₂, φ₃).
+    for c in "xyz":
+        assert float(s[f"s2.u{c}"]) == pytest.approx(float(s[f"tip.{c}"]), abs=1e-15)
+    for c, k in zip("xyz", "123"):
+        assert float(s[f"s2.r{c}"]) == pytest.approx(float(s[f"s2.phi{k}"]), abs=1e-15)
     for k, eta in enumerate([0.3, 0.8, 1.0]):
         assert float(s[f"s{k}.phi3"]) == pytest.approx(moment * eta * length / ei, rel=1e-6)
         assert float(s[f"s{k}.phi1"]) == pytest.approx(torque * eta * length / gj, rel=1e-6)

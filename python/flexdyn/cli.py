@@ -1,4 +1,5 @@
-"""The `flexdyn` command: run a model, validate it, or print the model-file schema."""
+"""The `flexdyn` command: run a model (dynamic or static), list its natural frequencies,
+validate it, or print the model-file schema."""
 
 from __future__ import annotations
 
@@ -35,15 +36,38 @@ def _run(args) -> int:
     for w in res.attrs.get("warnings_list", []):
         print(f"warning: {w}", file=sys.stderr)
     s = res.attrs["stats"]
+    static = res.attrs.get("analysis") == "static"
     if not args.quiet:
-        print(
-            f"{res.attrs['scheme'].upper()}: {s['steps']} steps, {s['halvings']} halvings, "
-            f"{s['newton_iterations']} Newton iterations, {s['factorizations']} factorizations, "
-            f"wall {s['wall_time_s']:.2f} s; max |C| {s['max_constraint_violation']:.2e}, "
-            f"max energy-identity defect {s['max_energy_defect']:.2e} J"
-        )
+        if static:
+            print(
+                f"STATIC: {s['steps']} load steps, {s['halvings']} halvings, "
+                f"{s['newton_iterations']} Newton iterations, wall {s['wall_time_s']:.2f} s; "
+                f"max |C| {s['max_constraint_violation']:.2e}"
+            )
+        else:
+            print(
+                f"{res.attrs['scheme'].upper()}: {s['steps']} steps, {s['halvings']} halvings, "
+                f"{s['newton_iterations']} Newton iterations, {s['factorizations']} factorizations, "
+                f"wall {s['wall_time_s']:.2f} s; max |C| {s['max_constraint_violation']:.2e}, "
+                f"max energy-identity defect {s['max_energy_defect']:.2e} J"
+            )
         if args.output:
-            print(f"wrote {len(res.time)} samples of {len(res.data_vars)} channels to {args.output}")
+            n = res.sizes["load_factor" if static else "time"]
+            print(f"wrote {n} samples of {len(res.data_vars)} channels to {args.output}")
+    return 0
+
+
+def _modes(args) -> int:
+    from .modes import modes
+
+    try:
+        md = modes(args.model, args.count, preload=not args.no_preload)
+    except (_core.ModelError, _core.SolverError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    print(f"{'mode':>4}  {'omega [rad/s]':>14}  {'f [Hz]':>12}")
+    for k, w, f in zip(md.mode.values, md.omega.values, md.frequency.values):
+        print(f"{k:>4}  {w:>14.6g}  {f:>12.6g}")
     return 0
 
 
@@ -71,6 +95,11 @@ def main(argv=None) -> int:
     r.add_argument("--output-dt", type=float)
     r.add_argument("-q", "--quiet", action="store_true")
     r.set_defaults(func=_run)
+    md = sub.add_parser("modes", help="natural frequencies about the static equilibrium")
+    md.add_argument("model")
+    md.add_argument("-n", "--count", type=int, default=10, help="number of modes (default 10)")
+    md.add_argument("--no-preload", action="store_true", help="linearize about the initial configuration")
+    md.set_defaults(func=_modes)
     v = sub.add_parser("validate", help="check a model file")
     v.add_argument("model")
     v.set_defaults(func=_validate)

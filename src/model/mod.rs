@@ -477,9 +477,10 @@ pub enum Sensor {
     /// At a station of a beam (`eta`: fraction of its length, or `s`: arc length): sectional forces
     /// `.F1 .F2 .F3` (N) and moments `.M1 .M2 .M3` (N·m) in the deformed section frame (axis 1
     /// along the beam), strains `.e1 .g2 .g3` and curvatures `.k1 .k2 .k3` (1/m) relative to the
-    /// reference (recovered from the Gauss points), the position `.x .y .z` (m), and the
-    /// rotation of the section from its reference as a rotation vector in the reference
-    /// section frame: `.phi1` (twist about the beam axis), `.phi2 .phi3` (bending), rad.
+    /// reference (recovered from the Gauss points), the position `.x .y .z` and displacement
+    /// `.ux .uy .uz` (m), and the rotation of the section from its reference as a rotation
+    /// vector, in the reference section frame `.phi1` (twist about the beam axis), `.phi2
+    /// .phi3` (bending), and in the inertial frame `.rx .ry .rz` (rad).
     BeamSection {
         name: String,
         beam: String,
