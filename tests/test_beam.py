@@ -76,6 +76,50 @@ def test_beam_errors_name_the_beam():
     assert "beams[0].section: beam `blade`: ei2 must be positive" in msg
 
 
+def test_geometry_section_and_load_errors_name_the_beam_and_say_what_to_fix():
+    m = fd.Model()
+    m.beam(
+        "arc",
+        [1, 0, 0.5],
+        elements=2,
+        section=SECTION,
+        arc={"center": [0, 0, 0], "axis": [0, 0, 1], "angle": 1.0},
+    )
+    m.beam(
+        "twisted",
+        [0, 0, 0],
+        [1, 0, 0],
+        elements=2,
+        section=SECTION,
+        twist_rate=0.1,
+        twist={"eta": [0, 1], "angle": [0, 1]},
+    )
+    m.beam(
+        "tapered",
+        [0, 0, 0],
+        [1, 0, 0],
+        elements=2,
+        sections=[{"eta": 0.2, "section": SECTION}, {"eta": 1.0, "section": SECTION}],
+    )
+    m.beam("none", [0, 0, 0], [1, 0, 0], elements=2)
+    m.beam("fold", [0, 0, 0], [0, 0, 0], via=[[1, 0, 0]], elements=2, section=SECTION)
+    m.distributed_force("q", "nowhere", [0, 0, 1])
+    with pytest.raises(fd.ModelError) as e:
+        m.validate()
+    msg = str(e.value)
+    assert (
+        "beams[0]: beam `arc`: arc: the start point is not in the plane through the centre normal to the axis"
+        in msg
+    )
+    assert "beams[1].twist: beam `twisted`: give either `twist_rate` or a `twist` table, not both" in msg
+    assert (
+        "beams[2].sections: beam `tapered`: section stations must start at eta = 0 and end at eta = 1" in msg
+    )
+    assert "beams[3].section: beam `none`: give either `section` (uniform) or `sections`" in msg
+    assert "beams[4]: beam `fold`: the line folds back on itself at via point 0" in msg
+    assert "loads[0].beam: load `q` refers to beam `nowhere`, which is not defined in `beams`" in msg
+
+
 @pytest.mark.parametrize("order,elements", [(1, 20), (2, 10), (3, 8)])
 def test_hanging_beam_carries_the_weight_below_each_section(order, elements):
     # A 2 m, 1 kg/m beam hanging from a spherical joint with a 5 kg weight: at rest its axial
