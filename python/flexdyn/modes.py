@@ -52,8 +52,9 @@ def modes(model, count: int = 10, *, preload: bool = True, load_steps: int | Non
         z = vt[rank:].T
     else:
         z = np.eye(int(q.sum()))
+    # K is not symmetrized: follower loads make it unsymmetric (their eigenvalues may then
+    # be complex near flutter; the real part of ω² is reported).
     kr = z.T @ kqq @ z
-    kr = 0.5 * (kr + kr.T)
     mr = z.T @ mqq @ z
     mr = 0.5 * (mr + mr.T)
     if np.any(np.linalg.eigvalsh(mr) <= 1e-14 * np.abs(mr).max()):
