@@ -588,12 +588,7 @@ impl Integrator {
             .joints
             .iter()
             .map(|j| {
-                let attach2 = match &j.law {
-                    crate::joints::JointLaw::Spherical(l) => l.at[1].offset,
-                    crate::joints::JointLaw::Revolute(l) => l.at[1].offset,
-                    crate::joints::JointLaw::Universal(l) => l.at[1].offset,
-                    crate::joints::JointLaw::Clamp(l) => l.at[1].offset,
-                };
+                let attach2 = j.law.attachments()[1].offset;
                 j.reaction(ctx, y, &attach2)
             })
             .collect();

@@ -99,3 +99,57 @@ pub fn add_rotation_pair<T: Real>(row: &mut [T], h: V3<T>, scale: T) {
     put(row, 3, V3(k));
     put(row, 9, V3(l));
 }
+
+/// Separation of the attachment points projected on side l's unit vector β:
+/// `C = e_βˡ·u`, `u = P₂ − P₁` (the prismatic constraints, eqs. 3–4).
+pub fn projection_value<T: Real>(s: &JointState<T>, at: &[Attachment; 2], beta: usize) -> T {
+    let u = point(s, 1, &at[1]) - point(s, 0, &at[0]);
+    unit(s, 1, &at[1], beta).dot(&u)
+}
+
+/// `row += e · G` for the three rows of `g`: a projection of point rows.
+fn project_rows<T: Real>(g: &Rows<T>, e: &V3<T>, row: &mut [T]) {
+    for (c, v) in row.iter_mut().enumerate().take(12) {
+        *v += e.0[0] * g[0][c] + e.0[1] * g[1][c] + e.0[2] * g[2][c];
+    }
+}
+
+/// Exact discrete gradient of a projection, eq. (8): `C_f − C_i = e_mᵀ(u_f − u_i) + u_mᵀ(e_f − e_i)`
+/// with `e_f − e_i = ρ̃ˡ e_m`, so the rotation of side l gets `e_m × u_m`; mid values are the
+/// means of the i and f values (eq. 9).
+pub fn projection_gradient<T: Real>(
+    si: &JointState<T>,
+    sf: &JointState<T>,
+    at: &[Attachment; 2],
+    beta: usize,
+    row: &mut [T],
+) {
+    let mut g = [[T::zero(); super::NCOL]; super::MAX_ROWS];
+    points_gradient(si, sf, at, &mut g, 0);
+    let e_m = (unit(si, 1, &at[1], beta) + unit(sf, 1, &at[1], beta)).scale_f(0.5);
+    let u = |s: &JointState<T>| point(s, 1, &at[1]) - point(s, 0, &at[0]);
+    let u_m = (u(si) + u(sf)).scale_f(0.5);
+    project_rows(&g, &e_m, row);
+    let h = e_m.cross(&u_m);
+    for c in 0..3 {
+        row[9 + c] += h.0[c];
+    }
+}
+
+/// Rate of a projection: `Ċ = eᵀu̇ + ωˡ·(e × u)`.
+pub fn projection_rate<T: Real>(
+    s: &JointState<T>,
+    at: &[Attachment; 2],
+    beta: usize,
+    row: &mut [T],
+) {
+    let mut g = [[T::zero(); super::NCOL]; super::MAX_ROWS];
+    points_rate(s, at, &mut g, 0);
+    let e = unit(s, 1, &at[1], beta);
+    let u = point(s, 1, &at[1]) - point(s, 0, &at[0]);
+    project_rows(&g, &e, row);
+    let h = e.cross(&u);
+    for c in 0..3 {
+        row[9 + c] += h.0[c];
+    }
+}

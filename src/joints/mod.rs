@@ -12,8 +12,11 @@
 //! them "spatially consistent" (ed-scheme-notes §4).
 
 pub mod clamp;
+pub mod cylindrical;
 pub mod kinematics;
+pub mod prismatic;
 pub mod revolute;
+pub mod screw;
 pub mod spherical;
 pub mod universal;
 
@@ -23,7 +26,8 @@ use crate::scalar::Real;
 use crate::system::layout::Layout;
 use crate::vec3::{M3, V3};
 
-pub const MAX_ROWS: usize = 6;
+/// Most constraint rows of one joint (the screw joint's 7).
+pub const MAX_ROWS: usize = 8;
 pub const MAX_COORDS: usize = 2;
 /// Columns of a gradient row: two nodes × (3 + 3) and the joint's coordinates.
 pub const NCOL: usize = 12 + MAX_COORDS;
@@ -66,6 +70,9 @@ pub enum JointLaw {
     Revolute(revolute::Revolute),
     Universal(universal::Universal),
     Clamp(clamp::Clamp),
+    Prismatic(prismatic::Prismatic),
+    Cylindrical(cylindrical::Cylindrical),
+    Screw(screw::Screw),
 }
 
 macro_rules! dispatch {
@@ -75,8 +82,26 @@ macro_rules! dispatch {
             JointLaw::Revolute($j) => $e,
             JointLaw::Universal($j) => $e,
             JointLaw::Clamp($j) => $e,
+            JointLaw::Prismatic($j) => $e,
+            JointLaw::Cylindrical($j) => $e,
+            JointLaw::Screw($j) => $e,
         }
     };
+}
+
+impl JointLaw {
+    /// The joint's attachments to its two sides.
+    pub fn attachments(&self) -> &[Attachment; 2] {
+        match self {
+            JointLaw::Spherical(j) => &j.at,
+            JointLaw::Revolute(j) => &j.at,
+            JointLaw::Universal(j) => &j.at,
+            JointLaw::Clamp(j) => &j.at,
+            JointLaw::Prismatic(j) => &j.at,
+            JointLaw::Cylindrical(j) => &j.at,
+            JointLaw::Screw(j) => &j.cylinder.at,
+        }
+    }
 }
 
 impl ConstraintLaw for JointLaw {
@@ -638,6 +663,12 @@ mod kernel_tests {
             JointLaw::Universal(universal::Universal { at }),
             JointLaw::Revolute(revolute::Revolute { at }),
             JointLaw::Clamp(clamp::Clamp { at }),
+            JointLaw::Prismatic(prismatic::Prismatic { at }),
+            JointLaw::Cylindrical(cylindrical::Cylindrical { at }),
+            JointLaw::Screw(screw::Screw {
+                cylinder: cylindrical::Cylindrical { at },
+                pitch: 0.02,
+            }),
         ]
     }
 
@@ -652,8 +683,8 @@ mod kernel_tests {
         let state = State {
             t: 0.1,
             nodes: vec![node(1.0), node(-0.7)],
-            coords: vec![0.3],
-            coord_rates: vec![-0.8],
+            coords: vec![0.3, -1.1],
+            coord_rates: vec![-0.8, 0.6],
             lambda: vec![],
             history: vec![],
         };

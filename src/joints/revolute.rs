@@ -21,11 +21,8 @@ impl ConstraintLaw for Revolute {
     }
     fn value<T: Real>(&self, s: &JointState<T>, out: &mut [T]) {
         points_value(s, &self.at, out);
-        out[3] = dot_value(s, &self.at, 2, 0);
-        out[4] = dot_value(s, &self.at, 2, 1);
-        let phi = s.q[0];
-        out[5] =
-            dot_value(s, &self.at, 0, 0) * phi.sin() + dot_value(s, &self.at, 0, 1) * phi.cos();
+        axis_value(s, &self.at, &mut out[3..5]);
+        out[5] = phi_value(s, &self.at, 0);
     }
     fn discrete_gradient<T: Real>(
         &self,
@@ -34,30 +31,68 @@ impl ConstraintLaw for Revolute {
         out: &mut Rows<T>,
     ) {
         points_gradient(si, sf, &self.at, out, 0);
-        add_rotation_pair(&mut out[3], dot_mid(si, sf, &self.at, 2, 0).0, T::one());
-        add_rotation_pair(&mut out[4], dot_mid(si, sf, &self.at, 2, 1).0, T::one());
-        // Eq. (22): sin_m, cos_m are mean values, φ_m the mean angle, S_m = sin(Δφ/2)/(Δφ/2).
-        let (pi, pf) = (si.q[0], sf.q[0]);
-        let sin_m = (pi.sin() + pf.sin()) * 0.5;
-        let cos_m = (pi.cos() + pf.cos()) * 0.5;
-        let phi_m = (pi + pf) * 0.5;
-        let s_m = sinc_half(pf - pi);
-        let (h11, g11) = dot_mid(si, sf, &self.at, 0, 0);
-        let (h12, g12) = dot_mid(si, sf, &self.at, 0, 1);
-        add_rotation_pair(&mut out[5], h11.scale(sin_m) + h12.scale(cos_m), T::one());
-        out[5][12] = (g11 * phi_m.cos() - g12 * phi_m.sin()) * s_m;
+        axis_gradient(si, sf, &self.at, out, 3);
+        phi_gradient(si, sf, &self.at, 0, &mut out[5]);
     }
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
         points_rate(s, &self.at, out, 0);
-        add_rotation_pair(&mut out[3], dot_h(s, &self.at, 2, 0), T::one());
-        add_rotation_pair(&mut out[4], dot_h(s, &self.at, 2, 1), T::one());
-        let phi = s.q[0];
-        let h =
-            dot_h(s, &self.at, 0, 0).scale(phi.sin()) + dot_h(s, &self.at, 0, 1).scale(phi.cos());
-        add_rotation_pair(&mut out[5], h, T::one());
-        out[5][12] =
-            dot_value(s, &self.at, 0, 0) * phi.cos() - dot_value(s, &self.at, 0, 1) * phi.sin();
+        axis_rate(s, &self.at, out, 3);
+        phi_rate(s, &self.at, 0, &mut out[5]);
     }
+}
+
+/// The two rows keeping the axes aligned, `e₃ᵏ·e₁ˡ = e₃ᵏ·e₂ˡ = 0` (eq. 11).
+pub fn axis_value<T: Real>(s: &JointState<T>, at: &[Attachment; 2], out: &mut [T]) {
+    out[0] = dot_value(s, at, 2, 0);
+    out[1] = dot_value(s, at, 2, 1);
+}
+
+pub fn axis_gradient<T: Real>(
+    si: &JointState<T>,
+    sf: &JointState<T>,
+    at: &[Attachment; 2],
+    out: &mut Rows<T>,
+    row: usize,
+) {
+    add_rotation_pair(&mut out[row], dot_mid(si, sf, at, 2, 0).0, T::one());
+    add_rotation_pair(&mut out[row + 1], dot_mid(si, sf, at, 2, 1).0, T::one());
+}
+
+pub fn axis_rate<T: Real>(s: &JointState<T>, at: &[Attachment; 2], out: &mut Rows<T>, row: usize) {
+    add_rotation_pair(&mut out[row], dot_h(s, at, 2, 0), T::one());
+    add_rotation_pair(&mut out[row + 1], dot_h(s, at, 2, 1), T::one());
+}
+
+/// The row defining φ (coordinate `qi`) about e₃ᵏ: `g₁₁ sin φ + g₁₂ cos φ = 0` (eq. 17).
+pub fn phi_value<T: Real>(s: &JointState<T>, at: &[Attachment; 2], qi: usize) -> T {
+    let phi = s.q[qi];
+    dot_value(s, at, 0, 0) * phi.sin() + dot_value(s, at, 0, 1) * phi.cos()
+}
+
+/// Eq. (22): sin_m, cos_m are mean values, φ_m the mean angle, S_m = sin(Δφ/2)/(Δφ/2).
+pub fn phi_gradient<T: Real>(
+    si: &JointState<T>,
+    sf: &JointState<T>,
+    at: &[Attachment; 2],
+    qi: usize,
+    row: &mut [T],
+) {
+    let (pi, pf) = (si.q[qi], sf.q[qi]);
+    let sin_m = (pi.sin() + pf.sin()) * 0.5;
+    let cos_m = (pi.cos() + pf.cos()) * 0.5;
+    let phi_m = (pi + pf) * 0.5;
+    let s_m = sinc_half(pf - pi);
+    let (h11, g11) = dot_mid(si, sf, at, 0, 0);
+    let (h12, g12) = dot_mid(si, sf, at, 0, 1);
+    add_rotation_pair(row, h11.scale(sin_m) + h12.scale(cos_m), T::one());
+    row[12 + qi] = (g11 * phi_m.cos() - g12 * phi_m.sin()) * s_m;
+}
+
+pub fn phi_rate<T: Real>(s: &JointState<T>, at: &[Attachment; 2], qi: usize, row: &mut [T]) {
+    let phi = s.q[qi];
+    let h = dot_h(s, at, 0, 0).scale(phi.sin()) + dot_h(s, at, 0, 1).scale(phi.cos());
+    add_rotation_pair(row, h, T::one());
+    row[12 + qi] = dot_value(s, at, 0, 0) * phi.cos() - dot_value(s, at, 0, 1) * phi.sin();
 }
 
 /// The relative rotation of side l about e₃ᵏ, for initial values: φ = atan2(e₂ᵏ·e₁ˡ, e₁ᵏ·e₁ˡ).

@@ -1,0 +1,54 @@
+//! Cylindrical joint (section 4.3): the prismatic joint's separation constraints (eqs. 3–4,
+//! defining Δ, coordinate 0) with the revolute joint's rotation constraints (eqs. 11 and 17,
+//! defining φ about the common axis, coordinate 1). Six rows, two relative motions.
+
+use super::prismatic::{slide_gradient, slide_rate, slide_value};
+use super::revolute::{axis_gradient, axis_rate, axis_value, phi_gradient, phi_rate, phi_value};
+use super::{Attachment, ConstraintLaw, JointState, Rows};
+use crate::scalar::Real;
+
+#[derive(Clone, Debug)]
+pub struct Cylindrical {
+    /// Triads whose third unit vector is the axis; Δ = 0 and φ = 0 when they coincide.
+    pub at: [Attachment; 2],
+}
+
+impl ConstraintLaw for Cylindrical {
+    fn n_rows(&self) -> usize {
+        6
+    }
+    fn n_coords(&self) -> usize {
+        2
+    }
+    fn value<T: Real>(&self, s: &JointState<T>, out: &mut [T]) {
+        slide_value(s, &self.at, 0, out);
+        axis_value(s, &self.at, &mut out[3..5]);
+        out[5] = phi_value(s, &self.at, 1);
+    }
+    fn discrete_gradient<T: Real>(
+        &self,
+        si: &JointState<T>,
+        sf: &JointState<T>,
+        out: &mut Rows<T>,
+    ) {
+        slide_gradient(si, sf, &self.at, 0, out);
+        axis_gradient(si, sf, &self.at, out, 3);
+        phi_gradient(si, sf, &self.at, 1, &mut out[5]);
+    }
+    fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
+        slide_rate(s, &self.at, 0, out);
+        axis_rate(s, &self.at, out, 3);
+        phi_rate(s, &self.at, 1, &mut out[5]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::joints::law_tests::{assert_law, attachments};
+
+    #[test]
+    fn discrete_gradient_exact_and_rate_consistent() {
+        assert_law(&Cylindrical { at: attachments() });
+    }
+}
