@@ -140,14 +140,21 @@ impl Channels {
                     Source::Velocity(node(n)),
                 ),
                 Sensor::JointCoordinate { joint, .. } => {
-                    let co = sys.joint(joint).and_then(|j| j.coord).expect("validated");
-                    add(
-                        &mut c,
-                        name,
-                        &["phi", "phi_rate"],
-                        &["rad", "rad/s"],
-                        Source::Coordinate(co),
-                    )
+                    for co in &sys.joint(joint).expect("validated").coords {
+                        let (names, units): ([String; 2], [&'static str; 2]) =
+                            if co.name == "phi" {
+                                (["phi".into(), "phi_rate".into()], ["rad", "rad/s"])
+                            } else {
+                                (["delta".into(), "delta_rate".into()], ["m", "m/s"])
+                            };
+                        add(
+                            &mut c,
+                            name,
+                            &[names[0].as_str(), names[1].as_str()],
+                            &units,
+                            Source::Coordinate(co.coord),
+                        )
+                    }
                 }
                 Sensor::JointReaction { joint, .. } => {
                     let k = sys.joint(joint).expect("validated").kernel;
@@ -159,15 +166,28 @@ impl Channels {
                         Source::Reaction(k),
                     )
                 }
-                Sensor::DriveForce { joint, .. } => {
-                    let d = sys.joint(joint).and_then(|j| j.drive).expect("validated");
-                    add(
-                        &mut c,
-                        name,
-                        &["torque", "work"],
-                        &["N*m", "J"],
-                        Source::Drive(d),
-                    )
+                Sensor::DriveForce {
+                    joint, coordinate, ..
+                } => {
+                    let spec = model
+                        .joints
+                        .iter()
+                        .find(|j| j.name() == joint)
+                        .and_then(|j| {
+                            crate::model::driven_coordinate(j, coordinate.as_deref()).ok()
+                        })
+                        .expect("validated");
+                    let d = sys
+                        .joint(joint)
+                        .and_then(|j| j.coords.iter().find(|c| c.name == spec.name))
+                        .and_then(|c| c.drive)
+                        .expect("validated");
+                    let (force, unit) = if spec.is_rotation() {
+                        ("torque", "N*m")
+                    } else {
+                        ("force", "N")
+                    };
+                    add(&mut c, name, &[force, "work"], &[unit, "J"], Source::Drive(d))
                 }
                 Sensor::Energy { .. } => add(&mut c, name, &ENERGY, &["J"], Source::Energy),
                 Sensor::BeamSection { beam, eta, s, .. } => {

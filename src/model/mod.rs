@@ -9,7 +9,7 @@ mod load;
 mod validate;
 
 pub use load::{from_json_str, from_yaml_str};
-pub use validate::{ModelError, ModelErrors};
+pub use validate::{driven_coordinate, ModelError, ModelErrors};
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -289,6 +289,98 @@ pub enum Joint {
     Universal(UniversalJoint),
     /// Rigid connection: no relative motion at all.
     Clamp(ClampJoint),
+    /// Identical orientations; node2 slides along the axis by Δ (eqs. 3–10).
+    Prismatic(PrismaticJoint),
+    /// Slides along and turns about a common axis: Δ and φ (section 4.3).
+    Cylindrical(CylindricalJoint),
+    /// A cylindrical joint with Δ = pitch·φ (eq. 24).
+    Screw(ScrewJoint),
+}
+
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct PrismaticJoint {
+    pub name: String,
+    pub node1: String,
+    pub node2: String,
+    /// Joint location, m (defaults to node2's initial position).
+    #[serde(default)]
+    pub position: Option<Vec3>,
+    /// Unit vector of the sliding axis.
+    pub axis: Vec3,
+    /// Prescribed relative displacement Δ(t), m. Its multiplier is the driving force.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drive: Option<TimeFunctionSpec>,
+    /// Spring and damper on Δ (N/m, N·s/m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spring: Option<SpringDamper>,
+}
+
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct CylindricalJoint {
+    pub name: String,
+    pub node1: String,
+    pub node2: String,
+    /// Joint location, m (defaults to node2's initial position).
+    #[serde(default)]
+    pub position: Option<Vec3>,
+    /// Unit vector of the common axis.
+    pub axis: Vec3,
+    /// Prescribed Δ(t), m (multiplier: the driving force).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drive_delta: Option<TimeFunctionSpec>,
+    /// Spring and damper on Δ.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spring_delta: Option<SpringDamper>,
+    /// Prescribed φ(t), rad (multiplier: the driving torque).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drive_phi: Option<TimeFunctionSpec>,
+    /// Spring and damper on φ.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spring_phi: Option<SpringDamper>,
+}
+
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct ScrewJoint {
+    pub name: String,
+    pub node1: String,
+    pub node2: String,
+    #[serde(default)]
+    pub position: Option<Vec3>,
+    /// Unit vector of the screw axis.
+    pub axis: Vec3,
+    /// Advance per radian of turn, m/rad (Δ = pitch·φ; a full turn advances 2π·pitch);
+    /// negative for a left-handed thread.
+    pub pitch: f64,
+    /// Prescribed Δ(t) (or give `drive_phi`; not both, they are tied by the thread).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drive_delta: Option<TimeFunctionSpec>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spring_delta: Option<SpringDamper>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drive_phi: Option<TimeFunctionSpec>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spring_phi: Option<SpringDamper>,
+}
+
+/// A relative coordinate of a joint (Δ or φ) with its optional drive and spring, and the
+/// model fields they came from.
+#[derive(Clone, Copy, Debug)]
+pub struct CoordinateSpec<'a> {
+    /// `delta` or `phi`.
+    pub name: &'static str,
+    pub drive: Option<&'a TimeFunctionSpec>,
+    pub spring: Option<&'a SpringDamper>,
+    pub drive_field: &'static str,
+    pub spring_field: &'static str,
+}
+
+impl CoordinateSpec<'_> {
+    pub fn is_rotation(&self) -> bool {
+        self.name == "phi"
+    }
 }
 
 #[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
@@ -350,6 +442,9 @@ impl Joint {
             Joint::Revolute(j) => &j.name,
             Joint::Universal(j) => &j.name,
             Joint::Clamp(j) => &j.name,
+            Joint::Prismatic(j) => &j.name,
+            Joint::Cylindrical(j) => &j.name,
+            Joint::Screw(j) => &j.name,
         }
     }
     pub fn nodes(&self) -> (&str, &str) {
@@ -358,6 +453,9 @@ impl Joint {
             Joint::Revolute(j) => (&j.node1, &j.node2),
             Joint::Universal(j) => (&j.node1, &j.node2),
             Joint::Clamp(j) => (&j.node1, &j.node2),
+            Joint::Prismatic(j) => (&j.node1, &j.node2),
+            Joint::Cylindrical(j) => (&j.node1, &j.node2),
+            Joint::Screw(j) => (&j.node1, &j.node2),
         }
     }
     pub fn kind(&self) -> &'static str {
@@ -366,6 +464,52 @@ impl Joint {
             Joint::Revolute(_) => "revolute",
             Joint::Universal(_) => "universal",
             Joint::Clamp(_) => "clamp",
+            Joint::Prismatic(_) => "prismatic",
+            Joint::Cylindrical(_) => "cylindrical",
+            Joint::Screw(_) => "screw",
+        }
+    }
+    /// The joint location given in the model, if any.
+    pub fn position(&self) -> Option<Vec3> {
+        match self {
+            Joint::Spherical(j) => j.position,
+            Joint::Revolute(j) => j.position,
+            Joint::Universal(j) => j.position,
+            Joint::Clamp(_) => None,
+            Joint::Prismatic(j) => j.position,
+            Joint::Cylindrical(j) => j.position,
+            Joint::Screw(j) => j.position,
+        }
+    }
+    /// The joint's relative coordinates, in the order of its law (Δ before φ).
+    pub fn coordinates(&self) -> Vec<CoordinateSpec<'_>> {
+        fn c<'a>(
+            name: &'static str,
+            drive: &'a Option<TimeFunctionSpec>,
+            spring: &'a Option<SpringDamper>,
+            drive_field: &'static str,
+            spring_field: &'static str,
+        ) -> CoordinateSpec<'a> {
+            CoordinateSpec {
+                name,
+                drive: drive.as_ref(),
+                spring: spring.as_ref(),
+                drive_field,
+                spring_field,
+            }
+        }
+        match self {
+            Joint::Revolute(j) => vec![c("phi", &j.drive, &j.spring, "drive", "spring")],
+            Joint::Prismatic(j) => vec![c("delta", &j.drive, &j.spring, "drive", "spring")],
+            Joint::Cylindrical(j) => vec![
+                c("delta", &j.drive_delta, &j.spring_delta, "drive_delta", "spring_delta"),
+                c("phi", &j.drive_phi, &j.spring_phi, "drive_phi", "spring_phi"),
+            ],
+            Joint::Screw(j) => vec![
+                c("delta", &j.drive_delta, &j.spring_delta, "drive_delta", "spring_delta"),
+                c("phi", &j.drive_phi, &j.spring_phi, "drive_phi", "spring_phi"),
+            ],
+            _ => vec![],
         }
     }
 }
@@ -465,13 +609,21 @@ pub enum Sensor {
     NodeRotation { name: String, node: String },
     /// Velocity `.vx .vy .vz` (m/s) and angular velocity `.wx .wy .wz` (rad/s), inertial frame.
     NodeVelocity { name: String, node: String },
-    /// A joint's relative coordinate and its rate (revolute: `.phi`, `.phi_rate`).
+    /// A joint's relative coordinates and their rates: `.phi .phi_rate` (rad, rad/s) and/or
+    /// `.delta .delta_rate` (m, m/s).
     JointCoordinate { name: String, joint: String },
     /// Reaction on node2 at the joint point, inertial frame: `.Fx .Fy .Fz` (N) and
     /// `.Mx .My .Mz` (N·m).
     JointReaction { name: String, joint: String },
-    /// Driving torque (or force) of a prescribed joint coordinate, and the work it has done.
-    DriveForce { name: String, joint: String },
+    /// Driving force `.force` (N, a prescribed Δ) or torque `.torque` (N·m, a prescribed φ),
+    /// and the work `.work` it has done. `coordinate` (`delta` or `phi`) picks the drive of a
+    /// joint that has two.
+    DriveForce {
+        name: String,
+        joint: String,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        coordinate: Option<String>,
+    },
     /// `.kinetic .potential .total .drive_work .external_work .damper_work .numerical_dissipation`, J.
     Energy { name: String },
     /// At a station of a beam (`eta`: fraction of its length, or `s`: arc length): sectional forces

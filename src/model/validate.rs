@@ -406,33 +406,38 @@ impl Model {
                     ),
                 );
             }
-            let pos = match j {
-                Joint::Spherical(s) => s.position,
-                Joint::Revolute(s) => s.position,
-                Joint::Universal(s) => s.position,
-                Joint::Clamp(_) => None,
-            };
-            if let Some(pos) = pos {
+            if let Some(pos) = j.position() {
                 c.vec3(format!("{p}.position"), &pos);
             }
-            match j {
-                Joint::Revolute(r) => {
-                    c.unit(format!("{p}.axis"), &r.axis, "axis");
-                    if let Some(d) = &r.drive {
-                        c.time_function(format!("{p}.drive"), d);
+            for co in j.coordinates() {
+                if let Some(d) = co.drive {
+                    c.time_function(format!("{p}.{}", co.drive_field), d);
+                }
+                if let Some(s) = co.spring {
+                    for (f, v) in [("stiffness", s.stiffness), ("damping", s.damping)] {
+                        if !(v.is_finite() && v >= 0.0) {
+                            c.err(
+                                format!("{p}.{}.{f}", co.spring_field),
+                                format!("joint `{}`: must be ≥ 0 (got {v})", j.name()),
+                            );
+                        }
                     }
-                    if let Some(s) = &r.spring {
-                        for (f, v) in [("stiffness", s.stiffness), ("damping", s.damping)] {
-                            if !(v.is_finite() && v >= 0.0) {
-                                c.err(
-                                    format!("{p}.spring.{f}"),
-                                    format!("joint `{}`: must be ≥ 0 (got {v})", r.name),
-                                );
-                            }
-                        }
-                        if !s.rest.is_finite() {
-                            c.err(format!("{p}.spring.rest"), "must be a finite number");
-                        }
+                    if !s.rest.is_finite() {
+                        c.err(format!("{p}.{}.rest", co.spring_field), "must be a finite number");
+                    }
+                }
+            }
+            match j {
+                Joint::Revolute(r) => c.unit(format!("{p}.axis"), &r.axis, "axis"),
+                Joint::Prismatic(r) => c.unit(format!("{p}.axis"), &r.axis, "axis"),
+                Joint::Cylindrical(r) => c.unit(format!("{p}.axis"), &r.axis, "axis"),
+                Joint::Screw(r) => {
+                    c.unit(format!("{p}.axis"), &r.axis, "axis");
+                    if !(r.pitch.is_finite() && r.pitch != 0.0) {
+                        c.err(format!("{p}.pitch"), format!("joint `{}`: the pitch must be a nonzero number of m/rad (got {})", r.name, r.pitch));
+                    }
+                    if r.drive_delta.is_some() && r.drive_phi.is_some() {
+                        c.err(format!("{p}.drive_phi"), format!("joint `{}`: Δ and φ are tied by the thread (Δ = pitch·φ); prescribe only one of drive_delta and drive_phi", r.name));
                     }
                 }
                 Joint::Universal(u) => {
@@ -481,15 +486,15 @@ impl Model {
                 Sensor::JointCoordinate { joint, .. } | Sensor::JointReaction { joint, .. } | Sensor::DriveForce { joint, .. } => {
                     match joint_names.get(joint.as_str()) {
                         None => c.err(format!("{p}.joint"), format!("refers to joint `{joint}`, which is not defined in `joints`")),
-                        Some(j) => match (s, j) {
-                            (Sensor::JointCoordinate { .. }, Joint::Revolute(_)) => {}
-                            (Sensor::JointCoordinate { .. }, _) => c.err(
+                        Some(j) => match s {
+                            Sensor::JointCoordinate { .. } if j.coordinates().is_empty() => c.err(
                                 format!("{p}.joint"),
                                 format!("joint `{joint}` is a {} joint, which has no relative coordinate", j.kind()),
                             ),
-                            (Sensor::DriveForce { .. }, Joint::Revolute(r)) if r.drive.is_some() => {}
-                            (Sensor::DriveForce { .. }, _) => {
-                                c.err(format!("{p}.joint"), format!("joint `{joint}` has no drive; add `drive:` to it or remove this sensor"))
+                            Sensor::DriveForce { coordinate, .. } => {
+                                if let Err(e) = driven_coordinate(j, coordinate.as_deref()) {
+                                    c.err(format!("{p}.{}", if coordinate.is_some() { "coordinate" } else { "joint" }), e);
+                                }
                             }
                             _ => {}
                         },
@@ -578,4 +583,37 @@ fn stations(eta: &[f64]) -> Result<(), String> {
         return Err("must increase strictly".into());
     }
     Ok(())
+}
+
+/// The coordinate a `drive_force` sensor reads: the one named, or the joint's only driven one.
+pub fn driven_coordinate<'a>(j: &'a Joint, name: Option<&str>) -> Result<CoordinateSpec<'a>, String> {
+    let coords = j.coordinates();
+    let driven: Vec<_> = coords.iter().filter(|c| c.drive.is_some()).copied().collect();
+    match name {
+        Some(n) => match coords.iter().find(|c| c.name == n) {
+            None => Err(format!(
+                "joint `{}` has no coordinate `{n}` (it has: {})",
+                j.name(),
+                if coords.is_empty() { "none".to_string() } else { coords.iter().map(|c| c.name).collect::<Vec<_>>().join(", ") }
+            )),
+            Some(c) if c.drive.is_none() => Err(format!(
+                "joint `{}` has no drive on `{n}`; add `{}:` to it or remove this sensor",
+                j.name(),
+                c.drive_field
+            )),
+            Some(c) => Ok(*c),
+        },
+        None => match driven.len() {
+            0 => Err(format!(
+                "joint `{}` has no drive; add `{}:` to it or remove this sensor",
+                j.name(),
+                coords.first().map_or("drive", |c| c.drive_field)
+            )),
+            1 => Ok(driven[0]),
+            _ => Err(format!(
+                "joint `{}` has drives on both `delta` and `phi`; say which with `coordinate: delta` or `coordinate: phi`",
+                j.name()
+            )),
+        },
+    }
 }

@@ -10,7 +10,10 @@ use crate::beam::line_load::FollowerLineLoad;
 use crate::elements::coordinate::{CoordinateDrive, CoordinateSpring};
 use crate::elements::inertia::NodeInertia;
 use crate::elements::loads::{LoadKind, PointLoad};
-use crate::joints::{clamp::Clamp, revolute::Revolute, spherical::Spherical, universal::Universal};
+use crate::joints::{
+    clamp::Clamp, cylindrical::Cylindrical, prismatic::Prismatic, revolute::Revolute,
+    screw::Screw, spherical::Spherical, universal::Universal,
+};
 use crate::joints::{Attachment, ConstraintLaw, JointKernel, JointLaw, Side};
 use crate::model::{self, Model, ModelError, ModelErrors, Scheme, GROUND};
 use crate::rotation::{exp_map, orthonormalize};
@@ -65,14 +68,35 @@ fn length_scale(nodes: &[NodeState]) -> f64 {
     nodes.iter().map(|n| n.x.max_abs()).fold(1.0f64, f64::max)
 }
 
-/// What a model joint became: its kernel and, for a revolute, its coordinate, drive and spring.
+/// What a model joint became: its kernel and its relative coordinates.
 #[derive(Clone, Debug)]
 pub struct JointInfo {
     pub name: String,
     pub kernel: usize,
-    pub coord: Option<usize>,
+    pub coords: Vec<JointCoordinate>,
+}
+
+/// A joint's relative coordinate (Δ or φ): its index, and its drive and spring if any.
+#[derive(Clone, Debug)]
+pub struct JointCoordinate {
+    /// `delta` or `phi`.
+    pub name: &'static str,
+    pub coord: usize,
     pub drive: Option<usize>,
     pub spring: Option<usize>,
+}
+
+/// Constraint rows of a joint's law (its drives add one each).
+fn law_rows(j: &model::Joint) -> usize {
+    match j {
+        model::Joint::Spherical(_) => 3,
+        model::Joint::Universal(_) => 4,
+        model::Joint::Screw(_) => 7,
+        model::Joint::Clamp(_)
+        | model::Joint::Revolute(_)
+        | model::Joint::Prismatic(_)
+        | model::Joint::Cylindrical(_) => 6,
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -262,18 +286,17 @@ impl System {
 
         // Count coordinates and rows to fix the layout.
         let mut n_coords = 0;
+        let mut n_drives = 0;
         let mut n_rows = 6 * cm_links.len();
         for j in &model.joints {
-            n_rows += match j {
-                model::Joint::Spherical(_) => 3,
-                model::Joint::Universal(_) => 4,
-                model::Joint::Clamp(_) => 6,
-                model::Joint::Revolute(r) => {
-                    n_coords += 1;
-                    6 + usize::from(r.drive.is_some())
-                }
-            };
+            let coords = j.coordinates();
+            n_coords += coords.len();
+            n_drives += coords.iter().filter(|c| c.drive.is_some()).count();
+            n_rows += law_rows(j);
         }
+        // Drive rows come after all joint rows.
+        let mut drive_row = n_rows;
+        n_rows += n_drives;
         let layout = Layout::new(scheme, nodes.len(), n_coords, n_rows);
 
         // Beam elements, their history laid out one after the other.
@@ -399,7 +422,53 @@ impl System {
                     triad: r.transpose().mul_m(&q),
                 }
             };
+            // Relative coordinates: zero in the initial configuration unless a drive prescribes
+            // a value at t = 0; then the initial configuration is taken to be at that value
+            // (side l's attachment is moved back by it).
             let mut coords = vec![];
+            let mut info_coords = vec![];
+            let mut initial = [0.0f64; 2];
+            for (k, co) in j.coordinates().iter().enumerate() {
+                let field = format!("{path}.{}", co.drive_field);
+                let drive = co
+                    .drive
+                    .map(|d| TimeFunction::new(d).map_err(|e| err(field.clone(), e)))
+                    .transpose()?;
+                if let Some(f) = &drive {
+                    initial[k] = f.value(0.0);
+                }
+                let c = coord_names.len();
+                coord_names.push(format!("{}.{}", j.name(), co.name));
+                coords.push(c);
+                if let Some(f) = drive {
+                    row_names.push((format!("{}.drive_{}", j.name(), co.name), 0));
+                    drives.push((c, drive_row, f));
+                    drive_row += 1;
+                }
+                let spring = co.spring.map(|s| {
+                    springs.push(CoordinateSpring::new(c, s.stiffness, s.damping, s.rest, &layout));
+                    springs.len() - 1
+                });
+                info_coords.push(JointCoordinate {
+                    name: co.name,
+                    coord: c,
+                    drive: co.drive.map(|_| drives.len() - 1),
+                    spring,
+                });
+            }
+            // A screw's thread ties the two: the one prescribed sets the other.
+            if let model::Joint::Screw(sc) = j {
+                if sc.drive_phi.is_some() {
+                    initial[0] = sc.pitch * initial[1];
+                } else {
+                    initial[1] = initial[0] / sc.pitch;
+                }
+            }
+            // Side l's attachment at Δ₀ along and φ₀ about the axis.
+            let slid = |axis: V3<f64>, p: V3<f64>, q: M3<f64>, delta0: f64, phi0: f64| {
+                let a = axis.scale_f(1.0 / axis.norm());
+                (p + a.scale_f(delta0), exp_map(&a.scale_f(phi0)).mul_m(&q))
+            };
             let law = match j {
                 model::Joint::Spherical(s) => {
                     let p = s.position.map(V3).unwrap_or(default_pos);
@@ -431,38 +500,40 @@ impl System {
                 model::Joint::Revolute(r) => {
                     let p = r.position.map(V3).unwrap_or(default_pos);
                     let q = triad_from_axis(V3(r.axis));
-                    // φ is zero in the initial configuration, unless a drive prescribes φ(0):
-                    // then the initial configuration is taken to be at φ = f(0).
-                    let drive = r
-                        .drive
-                        .as_ref()
-                        .map(|d| TimeFunction::new(d).map_err(|e| err(format!("{path}.drive"), e)))
-                        .transpose()?;
-                    let phi0 = drive.as_ref().map_or(0.0, |f| f.value(0.0));
-                    let ql = exp_map(&V3(r.axis).scale_f(phi0)).mul_m(&q);
-                    let c = coord_names.len();
-                    coord_names.push(format!("{}.phi", r.name));
-                    coords0.push(phi0);
-                    coords.push(c);
-                    if let Some(f) = drive {
-                        let drow = n_rows - drives_rows_left(model, ji);
-                        row_names.push((format!("{}.drive", r.name), 0));
-                        drives.push((c, drow, f, r.name.clone()));
-                    }
-                    if let Some(s) = &r.spring {
-                        springs.push(CoordinateSpring::new(
-                            c,
-                            s.stiffness,
-                            s.damping,
-                            s.rest,
-                            &layout,
-                        ));
-                    }
+                    let (pl, ql) = slid(V3(r.axis), p, q, 0.0, initial[0]);
                     JointLaw::Revolute(Revolute {
-                        at: [attach(&sides[0], p, q), attach(&sides[1], p, ql)],
+                        at: [attach(&sides[0], p, q), attach(&sides[1], pl, ql)],
+                    })
+                }
+                model::Joint::Prismatic(r) => {
+                    let p = r.position.map(V3).unwrap_or(default_pos);
+                    let q = triad_from_axis(V3(r.axis));
+                    let (pl, ql) = slid(V3(r.axis), p, q, -initial[0], 0.0);
+                    JointLaw::Prismatic(Prismatic {
+                        at: [attach(&sides[0], p, q), attach(&sides[1], pl, ql)],
+                    })
+                }
+                model::Joint::Cylindrical(r) => {
+                    let p = r.position.map(V3).unwrap_or(default_pos);
+                    let q = triad_from_axis(V3(r.axis));
+                    let (pl, ql) = slid(V3(r.axis), p, q, -initial[0], initial[1]);
+                    JointLaw::Cylindrical(Cylindrical {
+                        at: [attach(&sides[0], p, q), attach(&sides[1], pl, ql)],
+                    })
+                }
+                model::Joint::Screw(r) => {
+                    let p = r.position.map(V3).unwrap_or(default_pos);
+                    let q = triad_from_axis(V3(r.axis));
+                    let (pl, ql) = slid(V3(r.axis), p, q, -initial[0], initial[1]);
+                    JointLaw::Screw(Screw {
+                        cylinder: Cylindrical {
+                            at: [attach(&sides[0], p, q), attach(&sides[1], pl, ql)],
+                        },
+                        pitch: r.pitch,
                     })
                 }
             };
+            coords0.extend_from_slice(&initial[..coords.len()]);
             let nr = law.n_rows();
             for k in 0..nr {
                 row_names.push((j.name().to_string(), k));
@@ -470,9 +541,7 @@ impl System {
             joint_info.push(JointInfo {
                 name: j.name().to_string(),
                 kernel: joints.len(),
-                coord: coords.first().copied(),
-                drive: None,
-                spring: None,
+                coords: info_coords,
             });
             joints.push(JointKernel::new(
                 j.name().to_string(),
@@ -485,27 +554,15 @@ impl System {
             row += nr;
         }
         // Drive rows come after all joint rows; give names in row order.
-        let mut names_sorted: Vec<(String, usize)> = Vec::with_capacity(n_rows);
-        names_sorted.extend(
-            row_names
-                .iter()
-                .filter(|(n, _)| !n.ends_with(".drive"))
-                .cloned(),
-        );
+        let (drive_names, mut names_sorted): (Vec<_>, Vec<_>) = row_names
+            .into_iter()
+            .partition(|(n, _): &(String, usize)| n.contains(".drive_"));
+        names_sorted.extend(drive_names);
+        debug_assert_eq!(names_sorted.len(), n_rows);
         let drive_kernels: Vec<CoordinateDrive> = drives
             .into_iter()
-            .map(|(c, drow, f, jname)| {
-                names_sorted.push((format!("{jname}.drive"), 0));
-                CoordinateDrive::new(c, drow, f, &layout)
-            })
+            .map(|(c, drow, f)| CoordinateDrive::new(c, drow, f, &layout))
             .collect();
-        debug_assert_eq!(names_sorted.len(), n_rows);
-        for info in &mut joint_info {
-            if let Some(c) = info.coord {
-                info.drive = drive_kernels.iter().position(|d| d.coord == c);
-                info.spring = springs.iter().position(|s| s.coord == c);
-            }
-        }
 
         // Loads; a distributed load becomes one point load per node of its beam.
         let mut loads = Vec::new();
@@ -745,11 +802,3 @@ impl System {
     }
 }
 
-/// Drive rows are numbered after every joint row, in joint order: how many drive rows the
-/// joints from `ji` on still hold (so this joint's drive row is `n_rows − that`).
-fn drives_rows_left(model: &Model, ji: usize) -> usize {
-    model.joints[ji..]
-        .iter()
-        .filter(|j| matches!(j, model::Joint::Revolute(r) if r.drive.is_some()))
-        .count()
-}
