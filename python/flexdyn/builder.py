@@ -178,6 +178,76 @@ class Model:
             spring=dict(spring) if spring is not None else None,
         )
 
+    def prismatic(self, name, node1, node2, axis, position=None, drive=None, spring=None):
+        """Prismatic joint: identical orientations, node2 slides by Δ along `axis`; `drive`
+        prescribes Δ(t) (m), `spring` acts on Δ (N/m, N·s/m)."""
+        return self._joint(
+            "prismatic",
+            name,
+            node1,
+            node2,
+            axis=_vec(axis),
+            position=_vec(position) if position is not None else None,
+            drive=drive,
+            spring=dict(spring) if spring is not None else None,
+        )
+
+    def cylindrical(
+        self,
+        name,
+        node1,
+        node2,
+        axis,
+        position=None,
+        drive_delta=None,
+        spring_delta=None,
+        drive_phi=None,
+        spring_phi=None,
+    ):
+        """Cylindrical joint: slides by Δ along and turns by φ about `axis`; drives and
+        springs on either."""
+        return self._joint(
+            "cylindrical",
+            name,
+            node1,
+            node2,
+            axis=_vec(axis),
+            position=_vec(position) if position is not None else None,
+            drive_delta=drive_delta,
+            spring_delta=dict(spring_delta) if spring_delta is not None else None,
+            drive_phi=drive_phi,
+            spring_phi=dict(spring_phi) if spring_phi is not None else None,
+        )
+
+    def screw(
+        self,
+        name,
+        node1,
+        node2,
+        axis,
+        pitch,
+        position=None,
+        drive_delta=None,
+        spring_delta=None,
+        drive_phi=None,
+        spring_phi=None,
+    ):
+        """Screw joint: a cylindrical joint with Δ = pitch·φ (`pitch` in m/rad); drive one of
+        Δ and φ."""
+        return self._joint(
+            "screw",
+            name,
+            node1,
+            node2,
+            axis=_vec(axis),
+            pitch=float(pitch),
+            position=_vec(position) if position is not None else None,
+            drive_delta=drive_delta,
+            spring_delta=dict(spring_delta) if spring_delta is not None else None,
+            drive_phi=drive_phi,
+            spring_phi=dict(spring_phi) if spring_phi is not None else None,
+        )
+
     def universal(self, name, node1, node2, axis1, axis2, position=None):
         return self._joint(
             "universal",
