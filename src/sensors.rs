@@ -24,6 +24,8 @@ enum Source {
     BeamSection(usize, f64, M3<f64>),
     /// Beam energies: index in `System::beam_info`.
     BeamEnergy(usize),
+    /// Largest |C| of a joint kernel's rows.
+    Violation(usize),
 }
 
 #[derive(Clone, Debug)]
@@ -71,11 +73,13 @@ impl Channels {
             let (src, k) = &self.sources[c];
             out.push(match src {
                 Source::Reaction(j) => {
-                    let (f, m) = report.reactions[*j];
-                    if *k < 3 {
-                        f.0[*k]
-                    } else {
-                        m.0[k - 3]
+                    let (f, m, frame) = report.reactions[*j];
+                    match *k {
+                        0..=2 => f.0[*k],
+                        3..=5 => m.0[k - 3],
+                        // Components in the joint frame (axis 3 is the joint's axis).
+                        6..=8 => frame.tmul_v(&f).0[k - 6],
+                        _ => frame.tmul_v(&m).0[k - 9],
                     }
                 }
                 Source::Drive(d) => report.drive_forces[*d],
@@ -141,12 +145,11 @@ impl Channels {
                 ),
                 Sensor::JointCoordinate { joint, .. } => {
                     for co in &sys.joint(joint).expect("validated").coords {
-                        let (names, units): ([String; 2], [&'static str; 2]) =
-                            if co.name == "phi" {
-                                (["phi".into(), "phi_rate".into()], ["rad", "rad/s"])
-                            } else {
-                                (["delta".into(), "delta_rate".into()], ["m", "m/s"])
-                            };
+                        let (names, units): ([String; 2], [&'static str; 2]) = if co.name == "phi" {
+                            (["phi".into(), "phi_rate".into()], ["rad", "rad/s"])
+                        } else {
+                            (["delta".into(), "delta_rate".into()], ["m", "m/s"])
+                        };
                         add(
                             &mut c,
                             name,
@@ -161,10 +164,15 @@ impl Channels {
                     add(
                         &mut c,
                         name,
-                        &["Fx", "Fy", "Fz", "Mx", "My", "Mz"],
-                        &["N", "N", "N", "N*m"],
+                        &[
+                            "Fx", "Fy", "Fz", "Mx", "My", "Mz", "F1", "F2", "F3", "M1", "M2", "M3",
+                        ],
+                        &["N", "N", "N", "N*m", "N*m", "N*m", "N", "N", "N", "N*m"],
                         Source::Reaction(k),
-                    )
+                    );
+                    c.names.push(format!("{name}.violation"));
+                    c.units.push("m|1");
+                    c.sources.push((Source::Violation(k), 0));
                 }
                 Sensor::DriveForce {
                     joint, coordinate, ..
@@ -187,7 +195,13 @@ impl Channels {
                     } else {
                         ("force", "N")
                     };
-                    add(&mut c, name, &[force, "work"], &[unit, "J"], Source::Drive(d))
+                    add(
+                        &mut c,
+                        name,
+                        &[force, "work"],
+                        &[unit, "J"],
+                        Source::Drive(d),
+                    )
                 }
                 Sensor::Energy { .. } => add(&mut c, name, &ENERGY, &["J"], Source::Energy),
                 Sensor::BeamSection { beam, eta, s, .. } => {
@@ -306,6 +320,12 @@ impl Channels {
                         21..=23 => beam_rotation(el, sys, state, *xi).0[k - 21],
                         _ => beam_station(el, state, *xi, *k),
                     }
+                }
+                Source::Violation(j) => {
+                    let kernel = &sys.joints[*j];
+                    kernel.values_at(state)[..kernel.n_rows()]
+                        .iter()
+                        .fold(0.0f64, |m, v| m.max(v.abs()))
                 }
                 Source::BeamEnergy(i) => {
                     let (t, u) = sys.beam_energies(&sys.beam_info[*i], state);

@@ -29,8 +29,9 @@ pub struct StepReport {
     pub max_violation: f64,
     /// Per drive: driving force/torque.
     pub drive_forces: Vec<f64>,
-    /// Per joint kernel: reaction force and moment on node2 at the joint point.
-    pub reactions: Vec<(V3<f64>, V3<f64>)>,
+    /// Per joint kernel: reaction force and moment on node2 at the joint point (inertial), and
+    /// the joint frame on node2's side.
+    pub reactions: Vec<(V3<f64>, V3<f64>, crate::vec3::M3<f64>)>,
 }
 
 #[derive(Clone, Debug)]
@@ -584,14 +585,7 @@ impl Integrator {
                 v.into_iter().take(j.n_rows())
             })
             .fold(0.0f64, |m, v| m.max(v.abs()));
-        report.reactions = sys
-            .joints
-            .iter()
-            .map(|j| {
-                let attach2 = j.law.attachments()[1].offset;
-                j.reaction(ctx, y, &attach2)
-            })
-            .collect();
+        report.reactions = sys.joints.iter().map(|j| j.reaction(ctx, y)).collect();
         let state = State {
             t: ctx.t_f,
             nodes,

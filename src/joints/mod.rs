@@ -348,8 +348,11 @@ impl JointKernel {
     }
 
     /// Reaction on node2's side at the attachment point after a converged step: force and
-    /// moment about the joint point (inertial frame), from the discrete constraint forces.
-    pub fn reaction(&self, ctx: &StepCtx, y: &[f64], attach2: &V3<f64>) -> (V3<f64>, V3<f64>) {
+    /// moment about the joint point (inertial frame), from the discrete constraint forces,
+    /// and the joint frame on node2's side at the end of the step.
+    pub fn reaction(&self, ctx: &StepCtx, y: &[f64]) -> (V3<f64>, V3<f64>, M3<f64>) {
+        let at2 = self.law.attachments()[1];
+        let attach2 = &at2.offset;
         let buf = self.gather(y);
         let yl = &buf[..self.unknowns.len()];
         let si = self.state_i::<f64>(ctx);
@@ -370,7 +373,15 @@ impl JointKernel {
         let f = v3(&g, 6);
         let m_node = v3(&g, 9);
         let arm = sf.r[1].mul_v(attach2);
-        (f, m_node - arm.cross(&f))
+        (f, m_node - arm.cross(&f), sf.r[1].mul_m(&at2.triad))
+    }
+
+    /// Constraint values at a state (for the violation sensor).
+    pub fn values_at(&self, state: &crate::state::State) -> [f64; MAX_ROWS] {
+        let (_, s) = self.rate_rows(state);
+        let mut c = [0.0; MAX_ROWS];
+        self.law.value(&s, &mut c);
+        c
     }
 
     /// Work of the constraint forces over a converged step, `Δ·(B^Dᵀ λ)` = `λ·(C_f − C_i)`.

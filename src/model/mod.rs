@@ -502,12 +502,36 @@ impl Joint {
             Joint::Revolute(j) => vec![c("phi", &j.drive, &j.spring, "drive", "spring")],
             Joint::Prismatic(j) => vec![c("delta", &j.drive, &j.spring, "drive", "spring")],
             Joint::Cylindrical(j) => vec![
-                c("delta", &j.drive_delta, &j.spring_delta, "drive_delta", "spring_delta"),
-                c("phi", &j.drive_phi, &j.spring_phi, "drive_phi", "spring_phi"),
+                c(
+                    "delta",
+                    &j.drive_delta,
+                    &j.spring_delta,
+                    "drive_delta",
+                    "spring_delta",
+                ),
+                c(
+                    "phi",
+                    &j.drive_phi,
+                    &j.spring_phi,
+                    "drive_phi",
+                    "spring_phi",
+                ),
             ],
             Joint::Screw(j) => vec![
-                c("delta", &j.drive_delta, &j.spring_delta, "drive_delta", "spring_delta"),
-                c("phi", &j.drive_phi, &j.spring_phi, "drive_phi", "spring_phi"),
+                c(
+                    "delta",
+                    &j.drive_delta,
+                    &j.spring_delta,
+                    "drive_delta",
+                    "spring_delta",
+                ),
+                c(
+                    "phi",
+                    &j.drive_phi,
+                    &j.spring_phi,
+                    "drive_phi",
+                    "spring_phi",
+                ),
             ],
             _ => vec![],
         }
@@ -612,8 +636,10 @@ pub enum Sensor {
     /// A joint's relative coordinates and their rates: `.phi .phi_rate` (rad, rad/s) and/or
     /// `.delta .delta_rate` (m, m/s).
     JointCoordinate { name: String, joint: String },
-    /// Reaction on node2 at the joint point, inertial frame: `.Fx .Fy .Fz` (N) and
-    /// `.Mx .My .Mz` (N·m).
+    /// Reaction on node2 at the joint point: inertial components `.Fx .Fy .Fz` (N) and
+    /// `.Mx .My .Mz` (N·m), the same in the joint frame `.F1 .F2 .F3 .M1 .M2 .M3` (axis 3 along
+    /// the joint's axis), and the constraint violation `.violation` (largest |C| of the
+    /// joint's rows: m for points, 1 for directions).
     JointReaction { name: String, joint: String },
     /// Driving force `.force` (N, a prescribed Δ) or torque `.torque` (N·m, a prescribed φ),
     /// and the work `.work` it has done. `coordinate` (`delta` or `phi`) picks the drive of a

@@ -423,7 +423,10 @@ impl Model {
                         }
                     }
                     if !s.rest.is_finite() {
-                        c.err(format!("{p}.{}.rest", co.spring_field), "must be a finite number");
+                        c.err(
+                            format!("{p}.{}.rest", co.spring_field),
+                            "must be a finite number",
+                        );
                     }
                 }
             }
@@ -434,7 +437,13 @@ impl Model {
                 Joint::Screw(r) => {
                     c.unit(format!("{p}.axis"), &r.axis, "axis");
                     if !(r.pitch.is_finite() && r.pitch != 0.0) {
-                        c.err(format!("{p}.pitch"), format!("joint `{}`: the pitch must be a nonzero number of m/rad (got {})", r.name, r.pitch));
+                        c.err(
+                            format!("{p}.pitch"),
+                            format!(
+                                "joint `{}`: the pitch must be a nonzero number of m/rad (got {})",
+                                r.name, r.pitch
+                            ),
+                        );
                     }
                     if r.drive_delta.is_some() && r.drive_phi.is_some() {
                         c.err(format!("{p}.drive_phi"), format!("joint `{}`: Δ and φ are tied by the thread (Δ = pitch·φ); prescribe only one of drive_delta and drive_phi", r.name));
@@ -482,34 +491,58 @@ impl Model {
                 Sensor::NodePosition { node, .. }
                 | Sensor::NodeDisplacement { node, .. }
                 | Sensor::NodeRotation { node, .. }
-                | Sensor::NodeVelocity { node, .. } => node_ref(&mut c, format!("{p}.node"), node, false),
-                Sensor::JointCoordinate { joint, .. } | Sensor::JointReaction { joint, .. } | Sensor::DriveForce { joint, .. } => {
-                    match joint_names.get(joint.as_str()) {
-                        None => c.err(format!("{p}.joint"), format!("refers to joint `{joint}`, which is not defined in `joints`")),
-                        Some(j) => match s {
-                            Sensor::JointCoordinate { .. } if j.coordinates().is_empty() => c.err(
-                                format!("{p}.joint"),
-                                format!("joint `{joint}` is a {} joint, which has no relative coordinate", j.kind()),
-                            ),
-                            Sensor::DriveForce { coordinate, .. } => {
-                                if let Err(e) = driven_coordinate(j, coordinate.as_deref()) {
-                                    c.err(format!("{p}.{}", if coordinate.is_some() { "coordinate" } else { "joint" }), e);
-                                }
-                            }
-                            _ => {}
-                        },
-                    }
+                | Sensor::NodeVelocity { node, .. } => {
+                    node_ref(&mut c, format!("{p}.node"), node, false)
                 }
+                Sensor::JointCoordinate { joint, .. }
+                | Sensor::JointReaction { joint, .. }
+                | Sensor::DriveForce { joint, .. } => match joint_names.get(joint.as_str()) {
+                    None => c.err(
+                        format!("{p}.joint"),
+                        format!("refers to joint `{joint}`, which is not defined in `joints`"),
+                    ),
+                    Some(j) => match s {
+                        Sensor::JointCoordinate { .. } if j.coordinates().is_empty() => c.err(
+                            format!("{p}.joint"),
+                            format!(
+                                "joint `{joint}` is a {} joint, which has no relative coordinate",
+                                j.kind()
+                            ),
+                        ),
+                        Sensor::DriveForce { coordinate, .. } => {
+                            if let Err(e) = driven_coordinate(j, coordinate.as_deref()) {
+                                c.err(
+                                    format!(
+                                        "{p}.{}",
+                                        if coordinate.is_some() {
+                                            "coordinate"
+                                        } else {
+                                            "joint"
+                                        }
+                                    ),
+                                    e,
+                                );
+                            }
+                        }
+                        _ => {}
+                    },
+                },
                 Sensor::Energy { .. } | Sensor::Momentum { .. } => {}
                 Sensor::BeamEnergy { beam, .. } => {
                     if !self.beams.iter().any(|b| &b.name == beam) {
-                        c.err(format!("{p}.beam"), format!("refers to beam `{beam}`, which is not defined in `beams`"));
+                        c.err(
+                            format!("{p}.beam"),
+                            format!("refers to beam `{beam}`, which is not defined in `beams`"),
+                        );
                     }
                 }
                 Sensor::BeamSection { beam, eta, s, .. } => {
                     let b = self.beams.iter().find(|b| &b.name == beam);
                     if b.is_none() {
-                        c.err(format!("{p}.beam"), format!("refers to beam `{beam}`, which is not defined in `beams`"));
+                        c.err(
+                            format!("{p}.beam"),
+                            format!("refers to beam `{beam}`, which is not defined in `beams`"),
+                        );
                     }
                     match (eta, s) {
                         (Some(eta), None) => {
@@ -586,9 +619,16 @@ fn stations(eta: &[f64]) -> Result<(), String> {
 }
 
 /// The coordinate a `drive_force` sensor reads: the one named, or the joint's only driven one.
-pub fn driven_coordinate<'a>(j: &'a Joint, name: Option<&str>) -> Result<CoordinateSpec<'a>, String> {
+pub fn driven_coordinate<'a>(
+    j: &'a Joint,
+    name: Option<&str>,
+) -> Result<CoordinateSpec<'a>, String> {
     let coords = j.coordinates();
-    let driven: Vec<_> = coords.iter().filter(|c| c.drive.is_some()).copied().collect();
+    let driven: Vec<_> = coords
+        .iter()
+        .filter(|c| c.drive.is_some())
+        .copied()
+        .collect();
     match name {
         Some(n) => match coords.iter().find(|c| c.name == n) {
             None => Err(format!(

@@ -11,8 +11,8 @@ use crate::elements::coordinate::{CoordinateDrive, CoordinateSpring};
 use crate::elements::inertia::NodeInertia;
 use crate::elements::loads::{LoadKind, PointLoad};
 use crate::joints::{
-    clamp::Clamp, cylindrical::Cylindrical, prismatic::Prismatic, revolute::Revolute,
-    screw::Screw, spherical::Spherical, universal::Universal,
+    clamp::Clamp, cylindrical::Cylindrical, prismatic::Prismatic, revolute::Revolute, screw::Screw,
+    spherical::Spherical, universal::Universal,
 };
 use crate::joints::{Attachment, ConstraintLaw, JointKernel, JointLaw, Side};
 use crate::model::{self, Model, ModelError, ModelErrors, Scheme, GROUND};
@@ -446,7 +446,13 @@ impl System {
                     drive_row += 1;
                 }
                 let spring = co.spring.map(|s| {
-                    springs.push(CoordinateSpring::new(c, s.stiffness, s.damping, s.rest, &layout));
+                    springs.push(CoordinateSpring::new(
+                        c,
+                        s.stiffness,
+                        s.damping,
+                        s.rest,
+                        &layout,
+                    ));
                     springs.len() - 1
                 });
                 info_coords.push(JointCoordinate {
@@ -801,4 +807,3 @@ impl System {
         }
     }
 }
-
