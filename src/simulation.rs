@@ -77,6 +77,7 @@ impl Simulation {
         // A static solve has no velocities: it uses the EP layout whatever the scheme.
         let layout_scheme = if statics { Scheme::Ep } else { scheme };
         let system = System::compile_with(model, layout_scheme).map_err(SimError::Model)?;
+        check_redundancy(model, &system).map_err(SimError::Model)?;
         let mut settings = model.simulation.clone();
         settings.scheme = scheme;
         let mut state = system.initial.clone();
@@ -585,4 +586,48 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
         state.coord_rates[c] = rhs[lay.coord_delta(c)];
     }
     change
+}
+
+/// Over-constrained joints are a model error, reported by name: a dependence among the
+/// constraint rows in the initial configuration would only show up as a singular matrix.
+fn check_redundancy(model: &Model, system: &System) -> Result<(), ModelErrors> {
+    use crate::model::ModelError;
+    let deps = crate::system::redundancy::dependences(system, &system.initial);
+    if deps.is_empty() {
+        return Ok(());
+    }
+    let errors = deps
+        .iter()
+        .map(|d| {
+            // Drive rows are named `<joint>.drive_<coordinate>`.
+            let joint_of = |o: &str| o.split(".drive_").next().unwrap_or(o).to_string();
+            let mut joints: Vec<String> = Vec::new();
+            for o in &d.owners {
+                let j = joint_of(o);
+                if !joints.contains(&j) {
+                    joints.push(j);
+                }
+            }
+            let path = joints
+                .iter()
+                .find_map(|j| model.joints.iter().position(|mj| mj.name() == j))
+                .map_or("joints".to_string(), |i| format!("joints[{i}]"));
+            let names = joints
+                .iter()
+                .map(|j| format!("`{j}`"))
+                .collect::<Vec<_>>()
+                .join(", ");
+            let drives = d.owners.iter().any(|o| o.contains(".drive_"));
+            let hint = if drives {
+                "a drive prescribes a motion the joints already fix, or the joints over-constrain a loop"
+            } else {
+                "an over-constrained closed loop (e.g. a planar loop of revolutes: make one a universal or spherical joint), or a configuration where the joints are singular"
+            };
+            ModelError::new(
+                path,
+                format!("the constraints of {names} are not independent in the initial configuration: {hint}; remove a redundant constraint"),
+            )
+        })
+        .collect();
+    Err(ModelErrors(errors))
 }

@@ -194,3 +194,51 @@ def test_joint_input_errors_say_what_to_fix():
     )
     assert "sensors[1].joint: joint `s1` has no drive; add `drive_delta:` to it" in msg
     assert "sensors[2].coordinate: joint `c` has no coordinate `theta` (it has: delta, phi)" in msg
+
+
+def planar_four_bar(last_joint):
+    """Crank, coupler and rocker in the x-y plane, all joints about z: a closed loop whose
+    joints impose three constraints more than its one degree of freedom needs."""
+    m = fd.Model("planar four-bar")
+    pts = {"a": [0, 0, 0], "b": [0, 1, 0], "c": [2, 1.2, 0], "d": [2, 0, 0]}
+    for name, (p, q) in {"crank": ("a", "b"), "coupler": ("b", "c"), "rocker": ("c", "d")}.items():
+        mid = [(x + y) / 2 for x, y in zip(pts[p], pts[q])]
+        m.node(name, mid).rigid_body(f"{name}_body", name, mass=1.0, inertia=[0.1, 0.1, 0.1])
+    m.revolute("ja", "ground", "crank", axis=[0, 0, 1], position=pts["a"])
+    m.revolute("jb", "crank", "coupler", axis=[0, 0, 1], position=pts["b"])
+    m.revolute("jc", "coupler", "rocker", axis=[0, 0, 1], position=pts["c"])
+    last_joint(m, pts["d"])
+    return m
+
+
+def test_an_over_constrained_loop_is_reported_by_its_joints():
+    m = planar_four_bar(lambda m, p: m.revolute("jd", "rocker", "ground", axis=[0, 0, 1], position=p))
+    with pytest.raises(fd.ModelError) as e:
+        fd.simulate(m, t_end=0.01, dt=1e-3)
+    msg = str(e.value)
+    assert "the constraints of `ja`, `jb`, `jc`, `jd` are not independent in the initial configuration" in msg
+    assert "make one a universal or spherical joint" in msg
+    # Releasing the redundancy (a spherical joint closes the loop instead, and a universal
+    # stops the coupler spinning about itself) makes a valid mechanism.
+    ok = planar_four_bar(lambda m, p: m.spherical("jd", "rocker", "ground", position=p))
+    ok.data["joints"][2] = {
+        "type": "universal",
+        "name": "jc",
+        "node1": "coupler",
+        "node2": "rocker",
+        "position": [2, 1.2, 0],
+        "axis1": [0, 0, 1],
+        "axis2": [1, 0, 0],
+    }
+    assert fd.simulate(ok, t_end=0.01, dt=1e-3).attrs["completed"] == 1
+
+
+def test_a_drive_on_a_locked_coordinate_is_reported():
+    m = fd.Model()
+    m.node("a", [1, 0, 0]).rigid_body("b", "a", mass=1.0, inertia=[1, 1, 1])
+    m.prismatic("slide", "ground", "a", axis=[1, 0, 0], drive="0.1*t")
+    m.clamp("weld", "ground", "a")
+    with pytest.raises(
+        fd.ModelError, match=r"`slide`, `weld` are not independent .* a drive prescribes a motion"
+    ):
+        fd.simulate(m, t_end=0.01, dt=1e-3)

@@ -3,6 +3,7 @@
 
 mod beam_mesh;
 pub mod layout;
+pub mod redundancy;
 pub mod sparse;
 
 use crate::beam::element::BeamElement;

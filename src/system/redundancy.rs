@@ -1,0 +1,118 @@
+//! Redundant (over-constraining) joints: the constraint gradients at a configuration are
+//! checked for linear dependence, and each dependence is traced back to the joints whose
+//! rows take part in it, so that an over-constrained loop is reported by name instead of as
+//! a singular Newton matrix.
+
+use super::System;
+use crate::joints::Side;
+use crate::state::State;
+
+/// One linear dependence among constraint rows: the owners (joint or drive names) of the rows
+/// that take part in it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Dependence {
+    pub owners: Vec<String>,
+}
+
+/// The dense velocity-level constraint matrix `B` (rows: constraint rows; columns: each
+/// node's `[v, ω]` and the coordinates).
+fn constraint_matrix(sys: &System, state: &State) -> Vec<Vec<f64>> {
+    let n_nodes = sys.layout.n_nodes;
+    let cols = 6 * n_nodes + sys.layout.n_coords;
+    let mut b = vec![vec![0.0; cols]; sys.layout.n_rows];
+    for j in &sys.joints {
+        let (rows, _) = j.rate_rows(state);
+        for r in 0..j.n_rows() {
+            let row = &mut b[j.row0 + r];
+            for (k, side) in j.sides.iter().enumerate() {
+                if let Side::Node(a) = side {
+                    for c in 0..6 {
+                        row[6 * a + c] += rows[r][6 * k + c];
+                    }
+                }
+            }
+            for (c, &g) in j.coords.iter().enumerate() {
+                row[6 * n_nodes + g] += rows[r][12 + c];
+            }
+        }
+    }
+    for d in &sys.drives {
+        b[d.row][6 * n_nodes + d.coord] = 1.0;
+    }
+    b
+}
+
+/// Linear dependences among the constraint rows at `state` (empty when they are
+/// independent). Rows and columns are scaled to unit max-norm (rank is unchanged, units no
+/// longer matter); Gaussian elimination with full pivoting on `[B | I]` leaves, for each
+/// dependent row, the combination of original rows that vanishes.
+pub fn dependences(sys: &System, state: &State) -> Vec<Dependence> {
+    let mut a = constraint_matrix(sys, state);
+    let m = a.len();
+    if m == 0 {
+        return vec![];
+    }
+    let n = a[0].len();
+    for row in a.iter_mut() {
+        let s = row.iter().fold(0.0f64, |x, v| x.max(v.abs()));
+        if s > 0.0 {
+            row.iter_mut().for_each(|v| *v /= s);
+        }
+    }
+    for c in 0..n {
+        let s = a.iter().fold(0.0f64, |x, row| x.max(row[c].abs()));
+        if s > 0.0 {
+            a.iter_mut().for_each(|row| row[c] /= s);
+        }
+    }
+    let mut comb: Vec<Vec<f64>> = (0..m)
+        .map(|i| (0..m).map(|j| if i == j { 1.0 } else { 0.0 }).collect())
+        .collect();
+    let mut col_used = vec![false; n];
+    let tol = 1e-9;
+    let mut rank = 0;
+    while rank < m {
+        let mut best = (0.0, 0, 0);
+        for (i, row) in a.iter().enumerate().skip(rank) {
+            for (j, v) in row.iter().enumerate() {
+                if !col_used[j] && v.abs() > best.0 {
+                    best = (v.abs(), i, j);
+                }
+            }
+        }
+        if best.0 <= tol {
+            break;
+        }
+        let (_, pi, pj) = best;
+        a.swap(rank, pi);
+        comb.swap(rank, pi);
+        col_used[pj] = true;
+        let (pivot_row, pivot_comb) = (a[rank].clone(), comb[rank].clone());
+        for i in rank + 1..m {
+            let f = a[i][pj] / pivot_row[pj];
+            if f != 0.0 {
+                for (x, p) in a[i].iter_mut().zip(&pivot_row) {
+                    *x -= f * p;
+                }
+                for (x, p) in comb[i].iter_mut().zip(&pivot_comb) {
+                    *x -= f * p;
+                }
+            }
+        }
+        rank += 1;
+    }
+    comb[rank..]
+        .iter()
+        .map(|c| {
+            let big = c.iter().fold(0.0f64, |x, v| x.max(v.abs()));
+            let mut owners: Vec<String> = Vec::new();
+            for (r, v) in c.iter().enumerate() {
+                let owner = &sys.row_names[r].0;
+                if v.abs() > 1e-6 * big && !owners.contains(owner) {
+                    owners.push(owner.clone());
+                }
+            }
+            Dependence { owners }
+        })
+        .collect()
+}
