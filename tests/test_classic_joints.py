@@ -242,3 +242,48 @@ def test_a_drive_on_a_locked_coordinate_is_reported():
         fd.ModelError, match=r"`slide`, `weld` are not independent .* a drive prescribes a motion"
     ):
         fd.simulate(m, t_end=0.01, dt=1e-3)
+
+
+def carrier_and_slider(local):
+    """A tilted, spinning carrier on a ball joint with a sprung slider on it; the slide is
+    given in the carrier's triad (local) or in the inertial frame (the same geometry)."""
+    rv = np.array([0.3, -0.5, 0.8])
+    angle = np.linalg.norm(rv)
+    k = rv / angle
+    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    rot = np.eye(3) + np.sin(angle) * kx + (1 - np.cos(angle)) * kx @ kx
+    p_local, axis_local = np.array([0.3, 0.1, 0.0]), np.array([0.0, 1.0, 0.0])
+    m = fd.Model("carrier and slider", gravity=[0, 0, -G])
+    m.node("c", [0, 0, 0], rotation_vector=rv.tolist(), angular_velocity=[0.5, 1.0, 2.0])
+    m.rigid_body("carrier", "c", mass=3.0, inertia=[0.1, 0.2, 0.3])
+    m.node("p", (rot @ (p_local + [0.2, 0, 0])).tolist())
+    m.rigid_body("pendulum", "p", mass=1.0, inertia=[0.01, 0.02, 0.02])
+    m.spherical("ball", "ground", "c", position=[0, 0, 0])
+    if local:
+        m.prismatic(
+            "slide",
+            "c",
+            "p",
+            axis=[1.0, 0.0, 0.0],
+            position=(p_local + [0.2, 0, 0]).tolist(),
+            frame="node1",
+            spring={"stiffness": 30.0},
+        )
+    else:
+        m.prismatic(
+            "slide",
+            "c",
+            "p",
+            axis=(rot @ [1.0, 0.0, 0.0]).tolist(),
+            position=(rot @ (p_local + [0.2, 0, 0])).tolist(),
+            spring={"stiffness": 30.0},
+        )
+    m.sensor("node_position", "pos", node="p").sensor("joint_coordinate", "q", joint="slide")
+    return fd.simulate(m, scheme="ep", dt=2e-3, t_end=0.5)
+
+
+def test_joint_geometry_given_in_a_node_triad_matches_the_inertial_one():
+    a, b = carrier_and_slider(True), carrier_and_slider(False)
+    assert np.ptp(a["q.delta"].values) > 1e-3  # it slides
+    for c in ("pos.x", "pos.y", "pos.z", "q.delta"):
+        np.testing.assert_allclose(a[c].values, b[c].values, atol=1e-12)

@@ -154,17 +154,24 @@ class Model:
         return self
 
     def _joint(self, kind, name, node1, node2, **fields):
+        """Joints: `position` and axes are inertial, or with frame="node1"/"node2" given in
+        that node's initial triad (position relative to the node)."""
         self.data["joints"].append(
             _drop_none({"type": kind, "name": name, "node1": node1, "node2": node2, **fields})
         )
         return self
 
-    def spherical(self, name, node1, node2, position=None):
+    def spherical(self, name, node1, node2, position=None, frame=None):
         return self._joint(
-            "spherical", name, node1, node2, position=_vec(position) if position is not None else None
+            "spherical",
+            name,
+            node1,
+            node2,
+            position=_vec(position) if position is not None else None,
+            frame=frame,
         )
 
-    def revolute(self, name, node1, node2, axis, position=None, drive=None, spring=None):
+    def revolute(self, name, node1, node2, axis, position=None, drive=None, spring=None, frame=None):
         """Revolute joint about `axis`; `drive` prescribes φ(t) (number, expression of t, or
         {"t": [...], "value": [...]}); `spring` = {"stiffness", "damping", "rest"}."""
         return self._joint(
@@ -176,9 +183,10 @@ class Model:
             position=_vec(position) if position is not None else None,
             drive=drive,
             spring=dict(spring) if spring is not None else None,
+            frame=frame,
         )
 
-    def prismatic(self, name, node1, node2, axis, position=None, drive=None, spring=None):
+    def prismatic(self, name, node1, node2, axis, position=None, drive=None, spring=None, frame=None):
         """Prismatic joint: identical orientations, node2 slides by Δ along `axis`; `drive`
         prescribes Δ(t) (m), `spring` acts on Δ (N/m, N·s/m)."""
         return self._joint(
@@ -190,6 +198,7 @@ class Model:
             position=_vec(position) if position is not None else None,
             drive=drive,
             spring=dict(spring) if spring is not None else None,
+            frame=frame,
         )
 
     def cylindrical(
@@ -203,6 +212,7 @@ class Model:
         spring_delta=None,
         drive_phi=None,
         spring_phi=None,
+        frame=None,
     ):
         """Cylindrical joint: slides by Δ along and turns by φ about `axis`; drives and
         springs on either."""
@@ -217,6 +227,7 @@ class Model:
             spring_delta=dict(spring_delta) if spring_delta is not None else None,
             drive_phi=drive_phi,
             spring_phi=dict(spring_phi) if spring_phi is not None else None,
+            frame=frame,
         )
 
     def screw(
@@ -231,6 +242,7 @@ class Model:
         spring_delta=None,
         drive_phi=None,
         spring_phi=None,
+        frame=None,
     ):
         """Screw joint: a cylindrical joint with Δ = pitch·φ (`pitch` in m/rad); drive one of
         Δ and φ."""
@@ -246,9 +258,10 @@ class Model:
             spring_delta=dict(spring_delta) if spring_delta is not None else None,
             drive_phi=drive_phi,
             spring_phi=dict(spring_phi) if spring_phi is not None else None,
+            frame=frame,
         )
 
-    def universal(self, name, node1, node2, axis1, axis2, position=None):
+    def universal(self, name, node1, node2, axis1, axis2, position=None, frame=None):
         return self._joint(
             "universal",
             name,
@@ -257,6 +270,7 @@ class Model:
             axis1=_vec(axis1),
             axis2=_vec(axis2),
             position=_vec(position) if position is not None else None,
+            frame=frame,
         )
 
     def clamp(self, name, node1, node2):

@@ -277,7 +277,8 @@ pub struct SpringDamper {
 }
 
 /// Joints connect two nodes (`node1` is body k of the paper, `node2` body l); either may be
-/// `ground`. Positions and axes are given in the inertial frame in the initial configuration.
+/// `ground`. Positions and axes are given in the initial configuration, in the inertial frame
+/// or (with `frame: node1` / `node2`) in that node's triad.
 #[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum Joint {
@@ -303,6 +304,10 @@ pub struct PrismaticJoint {
     pub name: String,
     pub node1: String,
     pub node2: String,
+    /// The frame in which `position` and the axes are given: `inertial` (default), or
+    /// `node1` / `node2`: that node's initial triad, the position relative to the node.
+    #[serde(default, skip_serializing_if = "JointFrame::is_inertial")]
+    pub frame: JointFrame,
     /// Joint location, m (defaults to node2's initial position).
     #[serde(default)]
     pub position: Option<Vec3>,
@@ -322,6 +327,10 @@ pub struct CylindricalJoint {
     pub name: String,
     pub node1: String,
     pub node2: String,
+    /// The frame in which `position` and the axes are given: `inertial` (default), or
+    /// `node1` / `node2`: that node's initial triad, the position relative to the node.
+    #[serde(default, skip_serializing_if = "JointFrame::is_inertial")]
+    pub frame: JointFrame,
     /// Joint location, m (defaults to node2's initial position).
     #[serde(default)]
     pub position: Option<Vec3>,
@@ -347,6 +356,10 @@ pub struct ScrewJoint {
     pub name: String,
     pub node1: String,
     pub node2: String,
+    /// The frame in which `position` and the axes are given: `inertial` (default), or
+    /// `node1` / `node2`: that node's initial triad, the position relative to the node.
+    #[serde(default, skip_serializing_if = "JointFrame::is_inertial")]
+    pub frame: JointFrame,
     #[serde(default)]
     pub position: Option<Vec3>,
     /// Unit vector of the screw axis.
@@ -363,6 +376,22 @@ pub struct ScrewJoint {
     pub drive_phi: Option<TimeFunctionSpec>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spring_phi: Option<SpringDamper>,
+}
+
+/// Where a joint's geometry is given.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum JointFrame {
+    #[default]
+    Inertial,
+    Node1,
+    Node2,
+}
+
+impl JointFrame {
+    pub fn is_inertial(&self) -> bool {
+        *self == JointFrame::Inertial
+    }
 }
 
 /// A relative coordinate of a joint (Δ or φ) with its optional drive and spring, and the
@@ -389,6 +418,10 @@ pub struct SphericalJoint {
     pub name: String,
     pub node1: String,
     pub node2: String,
+    /// The frame in which `position` and the axes are given: `inertial` (default), or
+    /// `node1` / `node2`: that node's initial triad, the position relative to the node.
+    #[serde(default, skip_serializing_if = "JointFrame::is_inertial")]
+    pub frame: JointFrame,
     /// Joint location, m (defaults to node2's initial position).
     #[serde(default)]
     pub position: Option<Vec3>,
@@ -400,6 +433,10 @@ pub struct RevoluteJoint {
     pub name: String,
     pub node1: String,
     pub node2: String,
+    /// The frame in which `position` and the axes are given: `inertial` (default), or
+    /// `node1` / `node2`: that node's initial triad, the position relative to the node.
+    #[serde(default, skip_serializing_if = "JointFrame::is_inertial")]
+    pub frame: JointFrame,
     /// Joint location, m (defaults to node2's initial position).
     #[serde(default)]
     pub position: Option<Vec3>,
@@ -419,6 +456,10 @@ pub struct UniversalJoint {
     pub name: String,
     pub node1: String,
     pub node2: String,
+    /// The frame in which `position` and the axes are given: `inertial` (default), or
+    /// `node1` / `node2`: that node's initial triad, the position relative to the node.
+    #[serde(default, skip_serializing_if = "JointFrame::is_inertial")]
+    pub frame: JointFrame,
     #[serde(default)]
     pub position: Option<Vec3>,
     /// Unit vector fixed to node1.
@@ -467,6 +508,18 @@ impl Joint {
             Joint::Prismatic(_) => "prismatic",
             Joint::Cylindrical(_) => "cylindrical",
             Joint::Screw(_) => "screw",
+        }
+    }
+    /// The frame its geometry is given in.
+    pub fn frame(&self) -> JointFrame {
+        match self {
+            Joint::Spherical(j) => j.frame,
+            Joint::Revolute(j) => j.frame,
+            Joint::Universal(j) => j.frame,
+            Joint::Clamp(_) => JointFrame::Inertial,
+            Joint::Prismatic(j) => j.frame,
+            Joint::Cylindrical(j) => j.frame,
+            Joint::Screw(j) => j.frame,
         }
     }
     /// The joint location given in the model, if any.

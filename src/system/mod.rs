@@ -408,6 +408,14 @@ impl System {
                 Side::Node(a) => (nodes[*a].x, nodes[*a].r),
                 Side::Ground { x, r } => (*x, *r),
             };
+            // Geometry given in a node's triad is brought to the inertial frame.
+            let (fx, fr) = match j.frame() {
+                model::JointFrame::Inertial => (V3::zero(), M3::identity()),
+                model::JointFrame::Node1 => pose(&sides[0]),
+                model::JointFrame::Node2 => pose(&sides[1]),
+            };
+            let at_point = |p: [f64; 3]| fx + fr.mul_v(&V3(p));
+            let along = |a: [f64; 3]| fr.mul_v(&V3(a));
             let default_pos = match sides[1] {
                 Side::Node(a) => nodes[a].x,
                 Side::Ground { .. } => match sides[0] {
@@ -478,7 +486,7 @@ impl System {
             };
             let law = match j {
                 model::Joint::Spherical(s) => {
-                    let p = s.position.map(V3).unwrap_or(default_pos);
+                    let p = s.position.map(at_point).unwrap_or(default_pos);
                     JointLaw::Spherical(Spherical {
                         at: [
                             attach(&sides[0], p, M3::identity()),
@@ -487,11 +495,11 @@ impl System {
                     })
                 }
                 model::Joint::Universal(u) => {
-                    let p = u.position.map(V3).unwrap_or(default_pos);
+                    let p = u.position.map(at_point).unwrap_or(default_pos);
                     JointLaw::Universal(Universal {
                         at: [
-                            attach(&sides[0], p, triad_from_axis(V3(u.axis1))),
-                            attach(&sides[1], p, triad_from_axis(V3(u.axis2))),
+                            attach(&sides[0], p, triad_from_axis(along(u.axis1))),
+                            attach(&sides[1], p, triad_from_axis(along(u.axis2))),
                         ],
                     })
                 }
@@ -505,33 +513,33 @@ impl System {
                     })
                 }
                 model::Joint::Revolute(r) => {
-                    let p = r.position.map(V3).unwrap_or(default_pos);
-                    let q = triad_from_axis(V3(r.axis));
-                    let (pl, ql) = slid(V3(r.axis), p, q, 0.0, initial[0]);
+                    let p = r.position.map(at_point).unwrap_or(default_pos);
+                    let q = triad_from_axis(along(r.axis));
+                    let (pl, ql) = slid(along(r.axis), p, q, 0.0, initial[0]);
                     JointLaw::Revolute(Revolute {
                         at: [attach(&sides[0], p, q), attach(&sides[1], pl, ql)],
                     })
                 }
                 model::Joint::Prismatic(r) => {
-                    let p = r.position.map(V3).unwrap_or(default_pos);
-                    let q = triad_from_axis(V3(r.axis));
-                    let (pl, ql) = slid(V3(r.axis), p, q, -initial[0], 0.0);
+                    let p = r.position.map(at_point).unwrap_or(default_pos);
+                    let q = triad_from_axis(along(r.axis));
+                    let (pl, ql) = slid(along(r.axis), p, q, -initial[0], 0.0);
                     JointLaw::Prismatic(Prismatic {
                         at: [attach(&sides[0], p, q), attach(&sides[1], pl, ql)],
                     })
                 }
                 model::Joint::Cylindrical(r) => {
-                    let p = r.position.map(V3).unwrap_or(default_pos);
-                    let q = triad_from_axis(V3(r.axis));
-                    let (pl, ql) = slid(V3(r.axis), p, q, -initial[0], initial[1]);
+                    let p = r.position.map(at_point).unwrap_or(default_pos);
+                    let q = triad_from_axis(along(r.axis));
+                    let (pl, ql) = slid(along(r.axis), p, q, -initial[0], initial[1]);
                     JointLaw::Cylindrical(Cylindrical {
                         at: [attach(&sides[0], p, q), attach(&sides[1], pl, ql)],
                     })
                 }
                 model::Joint::Screw(r) => {
-                    let p = r.position.map(V3).unwrap_or(default_pos);
-                    let q = triad_from_axis(V3(r.axis));
-                    let (pl, ql) = slid(V3(r.axis), p, q, -initial[0], initial[1]);
+                    let p = r.position.map(at_point).unwrap_or(default_pos);
+                    let q = triad_from_axis(along(r.axis));
+                    let (pl, ql) = slid(along(r.axis), p, q, -initial[0], initial[1]);
                     JointLaw::Screw(Screw {
                         cylinder: Cylindrical {
                             at: [attach(&sides[0], p, q), attach(&sides[1], pl, ql)],
