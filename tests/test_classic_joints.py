@@ -252,7 +252,7 @@ def carrier_and_slider(local):
     k = rv / angle
     kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
     rot = np.eye(3) + np.sin(angle) * kx + (1 - np.cos(angle)) * kx @ kx
-    p_local, axis_local = np.array([0.3, 0.1, 0.0]), np.array([0.0, 1.0, 0.0])
+    p_local = np.array([0.3, 0.1, 0.0])
     m = fd.Model("carrier and slider", gravity=[0, 0, -G])
     m.node("c", [0, 0, 0], rotation_vector=rv.tolist(), angular_velocity=[0.5, 1.0, 2.0])
     m.rigid_body("carrier", "c", mass=3.0, inertia=[0.1, 0.2, 0.3])
