@@ -11,39 +11,171 @@ use crate::scalar::Real;
 use crate::system::layout::Layout;
 use crate::time_function::TimeFunction;
 
+/// The elastic law of a spring on a coordinate: its force `F(q)` (acting as `−F` on the
+/// coordinate) and energy `V(q)`.
+#[derive(Clone, Debug)]
+pub enum SpringLaw {
+    /// `F = k (q − rest)`.
+    Linear { stiffness: f64, rest: f64 },
+    /// `F(q)` piecewise linear through the points, extended with the end slopes; `V` is its
+    /// integral from where the force vanishes (or from the first point if it never does).
+    Table {
+        q: Vec<f64>,
+        force: Vec<f64>,
+        /// `∫ F` from the first point to the unloaded point.
+        offset: f64,
+    },
+}
+
+impl SpringLaw {
+    /// A tabulated spring (abscissae strictly increasing, forces non-decreasing).
+    pub fn table(q: Vec<f64>, force: Vec<f64>) -> SpringLaw {
+        let mut law = SpringLaw::Table {
+            q: q.clone(),
+            force: force.clone(),
+            offset: 0.0,
+        };
+        // The unloaded point: where the piecewise-linear force crosses zero.
+        let zero = (0..q.len() - 1).find_map(|j| {
+            let (f0, f1) = (force[j], force[j + 1]);
+            let last = j + 2 == q.len();
+            let first = j == 0;
+            let t = if f1 != f0 { -f0 / (f1 - f0) } else { f64::NAN };
+            let inside = (t >= 0.0 || first) && (t <= 1.0 || last);
+            (t.is_finite() && inside).then(|| q[j] + t * (q[j + 1] - q[j]))
+        });
+        if let Some(z) = zero {
+            let v = law.energy(z);
+            if let SpringLaw::Table { offset, .. } = &mut law {
+                *offset = v;
+            }
+        }
+        law
+    }
+
+    /// Segment of the table holding `q` (the end segments extend to infinity).
+    fn segment(q: &[f64], x: f64) -> usize {
+        let n = q.len();
+        q[1..n - 1].iter().take_while(|&&b| x >= b).count()
+    }
+
+    pub fn force<T: Real>(&self, x: T) -> T {
+        match self {
+            SpringLaw::Linear { stiffness, rest } => (x - *rest) * *stiffness,
+            SpringLaw::Table { q, force, .. } => {
+                let j = Self::segment(q, x.re());
+                let slope = (force[j + 1] - force[j]) / (q[j + 1] - q[j]);
+                (x - q[j]) * slope + force[j]
+            }
+        }
+    }
+
+    /// Tangent stiffness dF/dq (its largest value for a table), for scaling.
+    pub fn stiffness_scale(&self) -> f64 {
+        match self {
+            SpringLaw::Linear { stiffness, .. } => *stiffness,
+            SpringLaw::Table { q, force, .. } => q
+                .windows(2)
+                .zip(force.windows(2))
+                .map(|(a, f)| ((f[1] - f[0]) / (a[1] - a[0])).abs())
+                .fold(0.0, f64::max),
+        }
+    }
+
+    pub fn energy(&self, x: f64) -> f64 {
+        match self {
+            SpringLaw::Linear { stiffness, rest } => 0.5 * stiffness * (x - rest).powi(2),
+            SpringLaw::Table { q, offset, .. } => {
+                // ∫ F from q₀, exact for a piecewise-linear F (trapezoids).
+                let j = Self::segment(q, x);
+                let mut v = 0.0;
+                for k in 0..j {
+                    v += 0.5 * (self.force(q[k]) + self.force(q[k + 1])) * (q[k + 1] - q[k]);
+                }
+                v + 0.5 * (self.force(q[j]) + self.force(x)) * (x - q[j]) - offset
+            }
+        }
+    }
+
+    /// Discrete gradient `(V(b) − V(a))/(b − a)`, without dividing differences of energies:
+    /// the mean of F over [a, b], a weighted sum of F at the midpoints of the pieces between
+    /// breakpoints (each weight a length ratio in [0, 1]); exact, and `F(a)` when b = a.
+    pub fn secant<T: Real>(&self, a: T, b: T) -> T {
+        match self {
+            SpringLaw::Linear { .. } => self.force((a + b) * 0.5),
+            SpringLaw::Table { q, .. } => {
+                let (lo, hi) = if a.re() <= b.re() { (a, b) } else { (b, a) };
+                let inner: Vec<f64> = q[1..q.len() - 1]
+                    .iter()
+                    .copied()
+                    .filter(|&t| t > lo.re() && t < hi.re())
+                    .collect();
+                if inner.is_empty() {
+                    return self.force((a + b) * 0.5);
+                }
+                let width = hi - lo;
+                let mut acc = T::zero();
+                let mut start = lo;
+                for &t in inner.iter() {
+                    let end = T::cst(t);
+                    acc += self.force((start + end) * 0.5) * ((end - start) / width);
+                    start = end;
+                }
+                acc + self.force((start + hi) * 0.5) * ((hi - start) / width)
+            }
+        }
+    }
+}
+
+/// A spring and damper on a coordinate (`ε = q`).
+///
+/// EP takes the discrete gradient of the spring energy between i and f (for a linear spring,
+/// the force at the mean strain). ED (ed-scheme-notes §3.2, generalised): with the j-strain
+/// `ε_j = ε_i + h/6 (q̇_j − q̇_f)`, the f-force is the discrete gradient between j and f,
+/// `N̄ = (V(ε_f) − V(ε_j))/(ε_f − ε_j)`, and the j-force `dN = 2 (N̄ − F(ε_j))`; then the step
+/// dissipates exactly `D = V(ε_i) − V(ε_j) − F(ε_j)(ε_i − ε_j) ≥ 0` for a force that grows
+/// with q (for a linear spring: ½ k (ε_j − ε_i)², N̄ = k ε̄, dN = k(ε_f − ε_j)). Statics: F(ε_f).
+/// A damper adds `−c Δq/h`, whose work `−c Δq²/h` is never positive.
 #[derive(Clone, Debug)]
 pub struct CoordinateSpring {
     pub coord: usize,
-    pub stiffness: f64,
+    pub law: SpringLaw,
     pub damping: f64,
-    pub rest: f64,
     unknowns: Vec<usize>,
 }
 
 impl CoordinateSpring {
-    pub fn new(coord: usize, stiffness: f64, damping: f64, rest: f64, layout: &Layout) -> Self {
+    pub fn new(coord: usize, law: SpringLaw, damping: f64, layout: &Layout) -> Self {
         let mut unknowns = vec![layout.coord_delta(coord)];
         if layout.ed() {
             unknowns.push(layout.coord_jump(coord));
         }
         CoordinateSpring {
             coord,
-            stiffness,
+            law,
             damping,
-            rest,
             unknowns,
         }
     }
 
-    /// The strain jump `ε_j − ε_i` of the ED scheme for a converged step.
-    pub fn jump(&self, ctx: &StepCtx, y: &[f64]) -> f64 {
+    /// ED: the j-strain `ε_j` of a converged step (the local block `y`).
+    fn eps_j<T: Real>(&self, ctx: &StepCtx, y: &[T]) -> T {
+        let h = ctx.h;
+        let qi = ctx.state.coords[self.coord];
+        let rate_j = y[1] / h;
+        let rate_f = y[0] * (2.0 / h) - rate_j;
+        (rate_j - rate_f) * (h / 6.0) + qi
+    }
+
+    /// ED: the spring's numerical dissipation over a converged step (zero for EP).
+    pub fn dissipation(&self, ctx: &StepCtx, y: &[f64]) -> f64 {
         if !ctx.ed() {
             return 0.0;
         }
-        let dq = y[self.unknowns[0]];
-        let qj = y[self.unknowns[1]] / ctx.h;
-        let qf = 2.0 * dq / ctx.h - qj;
-        ctx.h / 6.0 * (qj - qf)
+        let yl = [y[self.unknowns[0]], y[self.unknowns[1]]];
+        let ei = ctx.state.coords[self.coord];
+        let ej = self.eps_j(ctx, &yl);
+        self.law.energy(ei) - self.law.energy(ej) - self.law.force(ej) * (ei - ej)
     }
 }
 
@@ -53,28 +185,24 @@ impl Kernel for CoordinateSpring {
     }
     fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], r: &mut [T]) {
         let h = ctx.h;
-        let k = self.stiffness;
-        let qi = ctx.state.coords[self.coord];
+        let qi = T::cst(ctx.state.coords[self.coord]);
         let dq = y[0];
         let eps_f = dq + qi;
         if ctx.is_static() {
             // Statics: the spring force at the end state; a damper carries nothing.
-            r[0] += (eps_f - self.rest) * k;
+            r[0] += self.law.force(eps_f);
             return;
         }
         // Residual rows hold −P (force on the coordinate with the sign of the inertia rows).
         r[0] += dq * (self.damping / h);
         if ctx.ed() {
-            let rate_j = y[1] / h;
-            let rate_f = dq * (2.0 / h) - rate_j;
-            let eps_j = (rate_j - rate_f) * (h / 6.0) + qi;
-            let mean = (eps_j + eps_f) * 0.5 - self.rest;
-            let dn = (eps_f - eps_j) * k;
-            r[0] += mean * k;
+            let eps_j = self.eps_j(ctx, y);
+            let mean = self.law.secant(eps_j, eps_f);
+            let dn = (mean - self.law.force(eps_j)) * 2.0;
+            r[0] += mean;
             r[1] -= dn / 6.0;
         } else {
-            let mean = dq * 0.5 + (qi - self.rest);
-            r[0] += mean * k;
+            r[0] += self.law.secant(qi, eps_f);
         }
     }
 }
@@ -197,11 +325,88 @@ mod tests {
             let y: Vec<f64> = (0..layout.n_unknowns())
                 .map(|i| 0.1 + 0.05 * i as f64)
                 .collect();
-            let sp = CoordinateSpring::new(0, 300.0, 4.0, 0.1, &layout);
+            let sp = CoordinateSpring::new(
+                0,
+                SpringLaw::Linear {
+                    stiffness: 300.0,
+                    rest: 0.1,
+                },
+                4.0,
+                &layout,
+            );
             assert!(tangent_error(&sp, &ctx, &y) < 1e-8);
             let f = TimeFunction::new(&TimeFunctionSpec::Expression("sin(3*t)".into())).unwrap();
             let dr = CoordinateDrive::new(0, 0, f, &layout);
             assert!(tangent_error(&dr, &ctx, &y) < 1e-8);
+        }
+    }
+
+    fn table() -> SpringLaw {
+        SpringLaw::table(vec![-0.5, 0.0, 0.2, 0.6], vec![-30.0, 0.0, 10.0, 90.0])
+    }
+
+    #[test]
+    fn table_energy_is_zero_where_the_force_vanishes() {
+        let law = SpringLaw::table(vec![-1.0, 1.0, 3.0], vec![-2.0, 2.0, 10.0]);
+        assert!(law.energy(0.0).abs() < 1e-15);
+        assert!(law.energy(2.0) > 0.0 && law.energy(-0.5) > 0.0);
+    }
+
+    #[test]
+    fn table_secant_is_the_exact_discrete_gradient_of_its_energy() {
+        let law = table();
+        // Pairs inside one segment, across one or several breakpoints, and beyond the ends.
+        for (a, b) in [
+            (0.05, 0.15),
+            (-0.2, 0.1),
+            (-0.7, 0.9),
+            (0.9, 0.3),
+            (0.2, 0.2),
+            (0.3, 0.3 + 1e-12),
+        ] {
+            let sec = law.secant(a, b);
+            if a == b {
+                assert_eq!(sec, law.force(a));
+                continue;
+            }
+            let exact = (law.energy(b) - law.energy(a)) / (b - a);
+            // The energy quotient itself loses ~1e-16·V/|b − a|: that is the bound.
+            let tol = 1e-14 * (1.0 + law.energy(a).abs() / (b - a).abs());
+            assert!((sec - exact).abs() < tol, "{a} {b}: {sec} vs {exact}");
+        }
+    }
+
+    #[test]
+    fn table_spring_tangents_match_finite_differences_across_breakpoints() {
+        let state = State {
+            t: 0.3,
+            nodes: vec![],
+            coords: vec![0.15],
+            coord_rates: vec![1.0],
+            lambda: vec![0.0],
+            history: vec![],
+        };
+        for (scheme, statics) in [
+            (Scheme::Ep, None),
+            (Scheme::Ed, None),
+            (Scheme::Ep, Some(0.6)),
+        ] {
+            let layout = Layout::new(scheme, 0, 1, 0);
+            let ctx = StepCtx {
+                layout,
+                h: 0.02,
+                t_i: 0.3,
+                t_f: 0.32,
+                s: 50.0,
+                state: &state,
+                gravity: V3([0.0; 3]),
+                statics,
+            };
+            // Δq = 0.3 crosses the breakpoint at 0.2; the j-strain sits elsewhere.
+            let y = vec![0.3, 0.011];
+            let sp = CoordinateSpring::new(0, table(), 2.0, &layout);
+            let e = tangent_error(&sp, &ctx, &y[..layout.n_unknowns()]);
+            assert!(e < 1e-7, "{scheme:?} {statics:?}: {e}");
         }
     }
 }

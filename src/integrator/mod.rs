@@ -316,10 +316,9 @@ impl Integrator {
     /// section (or weight over size), so constraint rows weigh like elastic ones.
     pub fn static_scaling(sys: &System) -> f64 {
         let k = (sys.force_ref * 1e8).max(sys.mass_ref * sys.gravity.norm());
-        let k = sys
-            .springs
-            .iter()
-            .fold(k, |m, sp| m.max(sp.stiffness / sys.length_ref.powi(2)));
+        let k = sys.springs.iter().fold(k, |m, sp| {
+            m.max(sp.law.stiffness_scale() / sys.length_ref.powi(2))
+        });
         if k > 0.0 {
             k / sys.length_ref
         } else {
@@ -569,7 +568,7 @@ impl Integrator {
                 d += 0.5 * k.mass * dv.norm_sq() + 0.5 * dw.dot(&k.inertia.mul_v(&dw));
             }
             for sp in &sys.springs {
-                d += 0.5 * sp.stiffness * sp.jump(ctx, y).powi(2);
+                d += sp.dissipation(ctx, y);
             }
             for b in &sys.beams {
                 d += b.jump_dissipation(ctx, &b.gather(y));

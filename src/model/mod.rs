@@ -261,7 +261,8 @@ pub enum TimeFunctionSpec {
     },
 }
 
-/// A linear spring and damper on a joint's relative coordinate.
+/// A spring and damper on a joint's relative coordinate: linear (`stiffness`, `rest`) or
+/// nonlinear (`table`), with linear viscous `damping`.
 #[derive(Serialize, Deserialize, JsonSchema, Clone, Debug, Default)]
 #[serde(deny_unknown_fields)]
 pub struct SpringDamper {
@@ -274,6 +275,35 @@ pub struct SpringDamper {
     /// Value of the coordinate at which the spring is unloaded.
     #[serde(default)]
     pub rest: f64,
+    /// Nonlinear spring instead of `stiffness`/`rest`: its force (N or N·m; it acts against
+    /// the coordinate) at coordinate values `at`, piecewise linear, extended beyond the ends
+    /// with the end slopes. The force must not decrease as the coordinate grows. Its energy is
+    /// zero where the force vanishes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub table: Option<SpringTable>,
+}
+
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug, Default)]
+#[serde(deny_unknown_fields)]
+pub struct SpringTable {
+    /// Coordinate values, strictly increasing (m or rad).
+    pub at: Vec<f64>,
+    /// The spring force at those values.
+    pub force: Vec<f64>,
+}
+
+impl SpringDamper {
+    /// The elastic law this spring describes.
+    pub fn law(&self) -> crate::elements::coordinate::SpringLaw {
+        use crate::elements::coordinate::SpringLaw;
+        match &self.table {
+            Some(t) => SpringLaw::table(t.at.clone(), t.force.clone()),
+            None => SpringLaw::Linear {
+                stiffness: self.stiffness,
+                rest: self.rest,
+            },
+        }
+    }
 }
 
 /// Joints connect two nodes (`node1` is body k of the paper, `node2` body l); either may be

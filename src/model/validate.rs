@@ -428,6 +428,31 @@ impl Model {
                             "must be a finite number",
                         );
                     }
+                    if let Some(t) = &s.table {
+                        let path = format!("{p}.{}.table", co.spring_field);
+                        let who = format!("joint `{}`", j.name());
+                        if s.stiffness != 0.0 || s.rest != 0.0 {
+                            c.err(path.clone(), format!("{who}: give either `stiffness`/`rest` (linear) or a `table`, not both"));
+                        } else if t.at.len() < 2 || t.at.len() != t.force.len() {
+                            c.err(
+                                path,
+                                format!(
+                                    "{who}: `at` and `force` must have the same length, at least 2"
+                                ),
+                            );
+                        } else if !t.at.iter().chain(&t.force).all(|v| v.is_finite())
+                            || !t.at.windows(2).all(|w| w[1] > w[0])
+                        {
+                            c.err(
+                                path,
+                                format!(
+                                    "{who}: `at` must increase strictly and all entries be finite"
+                                ),
+                            );
+                        } else if !t.force.windows(2).all(|w| w[1] >= w[0]) {
+                            c.err(path, format!("{who}: the force must not decrease as the coordinate grows (a convex spring energy is what lets the ED scheme guarantee decay)"));
+                        }
+                    }
                 }
             }
             match j {

@@ -455,13 +455,7 @@ impl System {
                     drive_row += 1;
                 }
                 let spring = co.spring.map(|s| {
-                    springs.push(CoordinateSpring::new(
-                        c,
-                        s.stiffness,
-                        s.damping,
-                        s.rest,
-                        &layout,
-                    ));
+                    springs.push(CoordinateSpring::new(c, s.law(), s.damping, &layout));
                     springs.len() - 1
                 });
                 info_coords.push(JointCoordinate {
@@ -774,7 +768,7 @@ impl System {
         let spr: f64 = self
             .springs
             .iter()
-            .map(|sp| 0.5 * sp.stiffness * (s.coords[sp.coord] - sp.rest).powi(2))
+            .map(|sp| sp.law.energy(s.coords[sp.coord]))
             .sum();
         let strain: f64 = self.beams.iter().map(|b| b.strain_energy(s)).sum();
         grav + spr + strain
