@@ -113,6 +113,9 @@ def test_nut_runs_down_a_screw_through_several_turns(scheme):
     np.testing.assert_allclose(delta, -0.5 * a * t**2, rtol=1e-3, atol=1e-12)
     e = s["e.total"].values
     assert np.abs(e - e[0]).max() < 1e-9 * np.abs(s["e.kinetic"].values).max()
+    if scheme == "ed":
+        assert np.all(np.diff(e) <= 1e-12 * np.abs(s["e.kinetic"].values).max())
+    assert s.attrs["stats"]["max_constraint_work"] < 1e-12
 
 
 @pytest.mark.parametrize("scheme", ["ep", "ed"])
@@ -132,9 +135,12 @@ def test_sprung_slide_oscillates_at_sqrt_k_over_m(scheme):
     exact = static * (1 - np.cos(omega * s.time.values))
     # (ωh)²/12 = 3e-5 phase error per radian: after 20 rad, 7e-4 of the amplitude.
     np.testing.assert_allclose(s["q.delta"].values, exact, atol=2e-3 * static)
+    e = s["e.total"].values
     if scheme == "ep":
-        e = s["e.total"].values
         assert np.abs(e - e[0]).max() < 1e-10 * np.abs(s["e.kinetic"].values).max()
+    else:
+        assert np.all(np.diff(e) <= 1e-12 * np.abs(s["e.kinetic"].values).max())
+    assert s.attrs["stats"]["max_constraint_work"] < 1e-12
 
 
 def free_cylinder(scheme):
