@@ -68,10 +68,10 @@ def test_slider_crank_kinematics_and_driving_torque(scheme):
     de_dt = (slider_crank_energy(t + dt, r, l, omega) - slider_crank_energy(t - dt, r, l, omega)) / (2 * dt)
     torque = s["motor.torque"].values
     scale = np.abs(de_dt).max() / omega
-    # Time discretisation O(h²) (ωh = 6e-3): measured 2e-5 of the peak. The first and last
-    # samples are extrapolated from the steps around them (their multipliers belong to
-    # mid-step times), to 3e-3: compared at the interior samples.
-    np.testing.assert_allclose(torque[1:-1], (de_dt / omega)[1:-1], atol=1e-4 * scale)
+    # Time discretisation O((ωh)²) (ωh = 6e-3): measured 8e-5 of the peak, bound 2.5× that.
+    # The first and last samples are extrapolated from the steps around them (their
+    # multipliers belong to mid-step times), to 3e-3: compared at the interior samples.
+    np.testing.assert_allclose(torque[1:-1], (de_dt / omega)[1:-1], atol=2e-4 * scale)
     assert s.attrs["stats"]["max_constraint_work"] < 1e-12
     # Joint-frame reactions: a frictionless slide carries no force along its axis (3); the
     # driven shaft's moment about its axis is the driving torque (up to O((ωh)²): the step's
