@@ -29,6 +29,17 @@ fn newton_iteration(c: &mut Criterion) {
             "chain64",
             from_yaml_str(&flexdyn::testing::chain_yaml(64)).unwrap(),
         ),
+        (
+            "beam_pendulum",
+            from_yaml_str(
+                &std::fs::read_to_string(concat!(
+                    env!("CARGO_MANIFEST_DIR"),
+                    "/examples/beam_pendulum.yaml"
+                ))
+                .unwrap(),
+            )
+            .unwrap(),
+        ),
     ] {
         for scheme in [Scheme::Ep, Scheme::Ed] {
             let mut sim = Simulation::with_scheme(&model, scheme).unwrap();
