@@ -334,22 +334,7 @@ impl Integrator {
         state: &State,
         load_factor: f64,
     ) -> Result<(State, StepReport), StepFailure> {
-        assert!(!sys.layout.ed(), "static solves use the EP layout");
-        let s = Self::static_scaling(sys);
-        let ctx = StepCtx {
-            layout: sys.layout,
-            h: 1.0,
-            t_i: state.t,
-            t_f: state.t,
-            s,
-            state,
-            gravity: sys.gravity,
-            statics: Some(load_factor),
-        };
-        self.y.iter_mut().for_each(|v| *v = 0.0);
-        for r in 0..sys.layout.n_rows {
-            self.y[sys.layout.mult(r)] = state.lambda[r] / s;
-        }
+        let ctx = self.start_static(sys, state, load_factor);
         let report = self.newton(sys, &ctx)?;
         Ok(self.commit(sys, &ctx, report))
     }
@@ -358,9 +343,26 @@ impl Integrator {
     /// elements, springs and follower loads with the geometric stiffness of the current
     /// constraint forces, bordered by the constraint gradients (rows scaled by `s`).
     pub fn static_tangent(&mut self, sys: &System, state: &State, load_factor: f64) -> Vec<f64> {
-        assert!(!sys.layout.ed(), "linearization uses the EP layout");
+        let ctx = self.start_static(sys, state, load_factor);
+        self.assemble(sys, &ctx, true);
+        self.matrix.to_dense().into_iter().flatten().collect()
+    }
+
+    /// The context of a static solve from `state`, with the unknowns at `state` (zero
+    /// increments, the multipliers of `state`).
+    fn start_static<'a>(
+        &mut self,
+        sys: &System,
+        state: &'a State,
+        load_factor: f64,
+    ) -> StepCtx<'a> {
+        assert!(!sys.layout.ed(), "static solves use the EP layout");
         let s = Self::static_scaling(sys);
-        let ctx = StepCtx {
+        self.y.iter_mut().for_each(|v| *v = 0.0);
+        for r in 0..sys.layout.n_rows {
+            self.y[sys.layout.mult(r)] = state.lambda[r] / s;
+        }
+        StepCtx {
             layout: sys.layout,
             h: 1.0,
             t_i: state.t,
@@ -369,13 +371,7 @@ impl Integrator {
             state,
             gravity: sys.gravity,
             statics: Some(load_factor),
-        };
-        self.y.iter_mut().for_each(|v| *v = 0.0);
-        for r in 0..sys.layout.n_rows {
-            self.y[sys.layout.mult(r)] = state.lambda[r] / s;
         }
-        self.assemble(sys, &ctx, true);
-        self.matrix.to_dense().into_iter().flatten().collect()
     }
 
     /// Statics: motions without stiffness in the current state (a pendulum before its

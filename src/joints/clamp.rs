@@ -6,8 +6,6 @@ use super::kinematics::*;
 use super::{Attachment, ConstraintLaw, JointState, Rows};
 use crate::scalar::Real;
 
-const PAIRS: [(usize, usize); 3] = [(1, 2), (2, 0), (0, 1)];
-
 #[derive(Clone, Debug)]
 pub struct Clamp {
     pub at: [Attachment; 2],
@@ -19,9 +17,7 @@ impl ConstraintLaw for Clamp {
     }
     fn value<T: Real>(&self, s: &JointState<T>, out: &mut [T]) {
         points_value(s, &self.at, out);
-        for (r, (a, b)) in PAIRS.iter().enumerate() {
-            out[3 + r] = dot_value(s, &self.at, *a, *b);
-        }
+        orientation_value(s, &self.at, &mut out[3..6]);
     }
     fn discrete_gradient<T: Real>(
         &self,
@@ -30,19 +26,11 @@ impl ConstraintLaw for Clamp {
         out: &mut Rows<T>,
     ) {
         points_gradient(si, sf, &self.at, out, 0);
-        for (r, (a, b)) in PAIRS.iter().enumerate() {
-            add_rotation_pair(
-                &mut out[3 + r],
-                dot_mid(si, sf, &self.at, *a, *b).0,
-                T::one(),
-            );
-        }
+        orientation_gradient(si, sf, &self.at, out, 3);
     }
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
         points_rate(s, &self.at, out, 0);
-        for (r, (a, b)) in PAIRS.iter().enumerate() {
-            add_rotation_pair(&mut out[3 + r], dot_h(s, &self.at, *a, *b), T::one());
-        }
+        orientation_rate(s, &self.at, out, 3);
     }
 }
 

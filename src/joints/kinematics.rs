@@ -153,3 +153,36 @@ pub fn projection_rate<T: Real>(
         row[9 + c] += h.0[c];
     }
 }
+
+/// The three rows of identical orientations, `e₂ᵏ·e₃ˡ = e₃ᵏ·e₁ˡ = e₁ᵏ·e₂ˡ = 0` (each a
+/// universal-joint constraint, eqs. 11–16), starting at `row`.
+const ORIENTATION_PAIRS: [(usize, usize); 3] = [(1, 2), (2, 0), (0, 1)];
+
+pub fn orientation_value<T: Real>(s: &JointState<T>, at: &[Attachment; 2], out: &mut [T]) {
+    for (r, (a, b)) in ORIENTATION_PAIRS.iter().enumerate() {
+        out[r] = dot_value(s, at, *a, *b);
+    }
+}
+
+pub fn orientation_gradient<T: Real>(
+    si: &JointState<T>,
+    sf: &JointState<T>,
+    at: &[Attachment; 2],
+    out: &mut Rows<T>,
+    row: usize,
+) {
+    for (r, (a, b)) in ORIENTATION_PAIRS.iter().enumerate() {
+        add_rotation_pair(&mut out[row + r], dot_mid(si, sf, at, *a, *b).0, T::one());
+    }
+}
+
+pub fn orientation_rate<T: Real>(
+    s: &JointState<T>,
+    at: &[Attachment; 2],
+    out: &mut Rows<T>,
+    row: usize,
+) {
+    for (r, (a, b)) in ORIENTATION_PAIRS.iter().enumerate() {
+        add_rotation_pair(&mut out[row + r], dot_h(s, at, *a, *b), T::one());
+    }
+}

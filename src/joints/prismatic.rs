@@ -8,8 +8,6 @@ use super::kinematics::*;
 use super::{Attachment, ConstraintLaw, JointState, Rows};
 use crate::scalar::Real;
 
-const PAIRS: [(usize, usize); 3] = [(1, 2), (2, 0), (0, 1)];
-
 #[derive(Clone, Debug)]
 pub struct Prismatic {
     /// Triads whose third unit vector is the sliding axis; Δ = 0 when the points coincide.
@@ -52,9 +50,7 @@ impl ConstraintLaw for Prismatic {
     }
     fn value<T: Real>(&self, s: &JointState<T>, out: &mut [T]) {
         slide_value(s, &self.at, 0, out);
-        for (r, (a, b)) in PAIRS.iter().enumerate() {
-            out[3 + r] = dot_value(s, &self.at, *a, *b);
-        }
+        orientation_value(s, &self.at, &mut out[3..6]);
     }
     fn discrete_gradient<T: Real>(
         &self,
@@ -63,16 +59,11 @@ impl ConstraintLaw for Prismatic {
         out: &mut Rows<T>,
     ) {
         slide_gradient(si, sf, &self.at, 0, out);
-        for (r, (a, b)) in PAIRS.iter().enumerate() {
-            let h = dot_mid(si, sf, &self.at, *a, *b).0;
-            add_rotation_pair(&mut out[3 + r], h, T::one());
-        }
+        orientation_gradient(si, sf, &self.at, out, 3);
     }
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
         slide_rate(s, &self.at, 0, out);
-        for (r, (a, b)) in PAIRS.iter().enumerate() {
-            add_rotation_pair(&mut out[3 + r], dot_h(s, &self.at, *a, *b), T::one());
-        }
+        orientation_rate(s, &self.at, out, 3);
     }
 }
 
