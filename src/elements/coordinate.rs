@@ -105,21 +105,22 @@ impl SpringLaw {
             SpringLaw::Linear { .. } => self.force((a + b) * 0.5),
             SpringLaw::Table { q, .. } => {
                 let (lo, hi) = if a.re() <= b.re() { (a, b) } else { (b, a) };
-                let inner: Vec<f64> = q[1..q.len() - 1]
-                    .iter()
-                    .copied()
-                    .filter(|&t| t > lo.re() && t < hi.re())
-                    .collect();
-                if inner.is_empty() {
-                    return self.force((a + b) * 0.5);
-                }
                 let width = hi - lo;
                 let mut acc = T::zero();
                 let mut start = lo;
-                for &t in inner.iter() {
+                let mut crossed = false;
+                // No allocation: this runs inside Newton's loop.
+                for &t in q[1..q.len() - 1]
+                    .iter()
+                    .filter(|&&t| t > lo.re() && t < hi.re())
+                {
                     let end = T::cst(t);
                     acc += self.force((start + end) * 0.5) * ((end - start) / width);
                     start = end;
+                    crossed = true;
+                }
+                if !crossed {
+                    return self.force((a + b) * 0.5);
                 }
                 acc + self.force((start + hi) * 0.5) * ((hi - start) / width)
             }
