@@ -4,5 +4,6 @@
 pub mod element;
 pub mod geometry;
 pub mod line_load;
+pub mod path;
 pub mod section;
 pub mod shape;
