@@ -115,3 +115,13 @@ def test_a_massless_free_node_is_reported():
     m.spherical("link", "b.2", "loose")
     with pytest.raises(fd.ModelError, match="carries no mass"):
         fd.modes(m, 3)
+
+
+def test_a_preload_without_equilibrium_says_how_to_linearize_anyway():
+    # A horizontal pinned beam under gravity has no equilibrium nearby (it would swing down).
+    m = fd.Model("horizontal pendulum", gravity=[0, 0, -9.81])
+    m.beam("b", [0, 0, 0], [1, 0, 0], elements=2, order=2, section=SLENDER)
+    m.spherical("pin", "ground", "b.0")
+    with pytest.raises(fd.SolverError, match="preload=False"):
+        fd.modes(m, 3)
+    assert fd.modes(m, 3, preload=False).sizes["mode"] == 3

@@ -39,7 +39,14 @@ def modes(model, count: int = 10, *, preload: bool = True, load_steps: int | Non
         data["simulation"]["load_steps"] = load_steps
     sim = _core.Simulation(json.dumps(data))
     if preload:
-        sim.solve_static()
+        try:
+            sim.solve_static()
+        except _core.SolverError as e:
+            raise _core.SolverError(
+                f"{e}\nmodes: the static pre-load has no solution near this configuration; "
+                "linearize about the initial configuration instead with preload=False "
+                "(flexdyn modes --no-preload)"
+            ) from None
     k, m, labels = sim.linearize()
     rows = np.array([lab.startswith("row:") for lab in labels])
     q = ~rows
