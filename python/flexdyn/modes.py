@@ -10,13 +10,12 @@ the static solver's 1e-12 tangent regularisation, far below round-off of the eig
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
 from . import _core
-from .builder import Model, load
+from .results import static_model_data
 
 
 def modes(model, count: int = 10, *, preload: bool = True, load_steps: int | None = None) -> xr.Dataset:
@@ -29,14 +28,7 @@ def modes(model, count: int = 10, *, preload: bool = True, load_steps: int | Non
     with ω ≈ 0. Raises ModelError if some admissible motion carries no mass (give the node a
     body or restrain it).
     """
-    if isinstance(model, (str, Path)):
-        model = load(model)
-    elif isinstance(model, dict):
-        model = Model.from_dict(model)
-    data = model.to_dict()
-    data["simulation"]["analysis"] = "static"
-    if load_steps is not None:
-        data["simulation"]["load_steps"] = load_steps
+    data = static_model_data(model, load_steps)
     sim = _core.Simulation(json.dumps(data))
     if preload:
         try:

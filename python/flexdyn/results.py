@@ -58,6 +58,24 @@ class _NetcdfWriter:
         self.ds.close()
 
 
+def model_data(model) -> dict:
+    """The model-file dict of a Model, a dict, or a YAML/JSON path."""
+    if isinstance(model, (str, Path)):
+        model = load(model)
+    elif isinstance(model, dict):
+        model = Model.from_dict(model)
+    return model.to_dict()
+
+
+def static_model_data(model, load_steps: int | None = None) -> dict:
+    """The model-file dict with a static analysis (and `load_steps` if given)."""
+    data = model_data(model)
+    data["simulation"]["analysis"] = "static"
+    if load_steps is not None:
+        data["simulation"]["load_steps"] = load_steps
+    return data
+
+
 def _dataset(times, values, names, units, attrs, dim="time", dim_units="s") -> xr.Dataset:
     data = {n: (dim, values[:, j], {"units": u}) for j, (n, u) in enumerate(zip(names, units))}
     return xr.Dataset(data, coords={dim: (dim, times, {"units": dim_units})}, attrs=attrs)
@@ -95,11 +113,7 @@ def simulate(
     raised after every completed step has been written; the partial results are on the
     exception as `.results`.
     """
-    if isinstance(model, (str, Path)):
-        model = load(model)
-    elif isinstance(model, dict):
-        model = Model.from_dict(model)
-    data = model.to_dict()
+    data = model_data(model)
     overrides = {"t_end": t_end, "dt": dt, "scheme": scheme, "output_dt": output_dt, "newton_tol": newton_tol}
     data["simulation"].update({k: v for k, v in overrides.items() if v is not None})
     sim = _core.Simulation(json.dumps(data))
@@ -187,14 +201,7 @@ def solve_static(
     converged load step, the unloaded state first); `ds.isel(load_factor=-1)` is the
     equilibrium under the full loads. Arguments as for `simulate`.
     """
-    if isinstance(model, (str, Path)):
-        model = load(model)
-    elif isinstance(model, dict):
-        model = Model.from_dict(model)
-    data = model.to_dict()
-    data["simulation"]["analysis"] = "static"
-    if load_steps is not None:
-        data["simulation"]["load_steps"] = load_steps
+    data = static_model_data(model, load_steps)
     return simulate(Model.from_dict(data), newton_tol=newton_tol, out=out)
 
 
