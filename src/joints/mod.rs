@@ -13,6 +13,7 @@
 
 pub mod clamp;
 pub mod cylindrical;
+pub mod equations;
 pub mod kinematics;
 pub mod prismatic;
 pub mod revolute;
@@ -20,11 +21,12 @@ pub mod screw;
 pub mod spherical;
 pub mod universal;
 
-use crate::elements::{add3, v3, Kernel, StepCtx};
+use crate::elements::{v3, Kernel, StepCtx};
 use crate::rotation::cayley;
 use crate::scalar::Real;
 use crate::system::layout::Layout;
 use crate::vec3::{M3, V3};
+use equations::{add_constraint_equations, ColumnMap, ConstraintTerms, CoordColumn, NodeColumns};
 
 /// Most constraint rows of one joint (the screw joint's 7).
 pub const MAX_ROWS: usize = 8;
@@ -268,66 +270,6 @@ impl JointKernel {
         (sf, rs)
     }
 
-    /// Adds `Bᵀ λ` for gradient rows `b` over spatial columns, converting the rotation
-    /// columns to material ones with `rot[k]` (`R_i` for B^D and B(q_i), `R_f` for B(q_f)).
-    fn add_forces<T: Real>(
-        &self,
-        ctx: &StepCtx,
-        b: &Rows<T>,
-        lam: &[T],
-        rot: &[M3<T>; 2],
-        jump_rows: bool,
-        out: &mut [T],
-    ) {
-        let n = self.n_rows();
-        let per = Self::per(ctx);
-        let mut g = [T::zero(); NCOL];
-        for (c, gc) in g.iter_mut().enumerate() {
-            for r in 0..n {
-                *gc += b[r][c] * lam[r];
-            }
-        }
-        for k in 0..2 {
-            let slot = if jump_rows {
-                self.slots[k].jump
-            } else {
-                self.slots[k].delta
-            };
-            if let Some(at) = slot {
-                add3(out, at, v3(&g, 6 * k));
-                add3(out, at + 3, rot[k].tmul_v(&v3(&g, 6 * k + 3)));
-            }
-        }
-        for c in 0..self.coords.len() {
-            out[self.coord_slot + per * c + usize::from(jump_rows)] += g[12 + c];
-        }
-    }
-
-    /// `B V` for a velocity given per side as (v, material W) with rotation `rot` to make ω.
-    fn apply_rate<T: Real>(
-        &self,
-        b: &Rows<T>,
-        v: &[(V3<T>, V3<T>); 2],
-        rot: &[M3<T>; 2],
-        qdot: &[T],
-        out: &mut [T],
-    ) {
-        let n = self.n_rows();
-        for (r, o) in out.iter_mut().enumerate().take(n) {
-            let mut acc = T::zero();
-            for k in 0..2 {
-                let w = rot[k].mul_v(&v[k].1);
-                for c in 0..3 {
-                    acc += b[r][6 * k + c] * v[k].0 .0[c] + b[r][6 * k + 3 + c] * w.0[c];
-                }
-            }
-            for (c, qd) in qdot.iter().enumerate() {
-                acc += b[r][12 + c] * *qd;
-            }
-            *o = acc;
-        }
-    }
-
     /// Current multipliers (physical constraint forces `λ = s μ`) from a local block.
     fn multipliers<T: Real>(&self, ctx: &StepCtx, y: &[T], jump: bool) -> [T; MAX_ROWS] {
         let per = Self::per(ctx);
@@ -345,6 +287,46 @@ impl JointKernel {
             *b = y[g];
         }
         buf
+    }
+
+    /// The joint's gradient columns (`[Δx₁, ρ₁, Δx₂, ρ₂, q…]`) mapped to its local unknowns.
+    #[allow(clippy::type_complexity)]
+    fn columns<T: Real>(
+        &self,
+        ctx: &StepCtx,
+        si: &JointState<T>,
+        sf: &JointState<T>,
+    ) -> ([NodeColumns<T>; 2], usize, [CoordColumn; MAX_COORDS]) {
+        let per = Self::per(ctx);
+        let none = NodeColumns {
+            col: 0,
+            delta: 0,
+            jump: None,
+            r_i: M3::identity(),
+            r_f: M3::identity(),
+        };
+        let mut blocks = [none; 2];
+        let mut nb = 0;
+        for k in 0..2 {
+            if let Some(d) = self.slots[k].delta {
+                blocks[nb] = NodeColumns {
+                    col: 6 * k,
+                    delta: d,
+                    jump: self.slots[k].jump,
+                    r_i: si.r[k],
+                    r_f: sf.r[k],
+                };
+                nb += 1;
+            }
+        }
+        let mut coords = [CoordColumn { col: 0, slot: 0 }; MAX_COORDS];
+        for (c, cc) in coords.iter_mut().enumerate().take(self.coords.len()) {
+            *cc = CoordColumn {
+                col: 12 + c,
+                slot: self.coord_slot + per * c,
+            };
+        }
+        (blocks, nb, coords)
     }
 
     /// Reaction on node2's side at the attachment point after a converged step: force and
@@ -455,83 +437,35 @@ impl Kernel for JointKernel {
 
     fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], res: &mut [T]) {
         let n = self.n_rows();
-        let per = Self::per(ctx);
         let si = self.state_i::<T>(ctx);
-        let (sf, rs) = self.state_f(ctx, &si, y);
-        let lam = self.multipliers(ctx, y, false);
-        if ctx.is_static() {
-            // Statics: B(q_f)ᵀ λ (rotation rows material at f) and C_f = 0.
-            let mut bf = zero_rows::<T>();
-            self.law.rate(&sf, &mut bf);
-            self.add_forces(ctx, &bf, &lam[..n], &sf.r, false, res);
-            let mut c = [T::zero(); MAX_ROWS];
-            self.law.value(&sf, &mut c);
-            for r in 0..n {
-                res[self.mult_slot + r] += c[r] * ctx.s;
-            }
-            return;
-        }
-        let mut bd = zero_rows::<T>();
-        self.law.discrete_gradient(&si, &sf, &mut bd);
-        let ri = si.r;
-        // f-rows: −P_f ∋ B^Dᵀ λ_f (rotation columns material via R_i).
-        self.add_forces(ctx, &bd, &lam[..n], &ri, false, res);
+        let (sf, _) = self.state_f(ctx, &si, y);
+        let (blocks, nb, coords) = self.columns(ctx, &si, &sf);
+        let map = ColumnMap {
+            nodes: &blocks[..nb],
+            coords: &coords[..self.coords.len()],
+            mult: self.mult_slot,
+            n_rows: n,
+        };
         let mut c = [T::zero(); MAX_ROWS];
         self.law.value(&sf, &mut c);
-        for r in 0..n {
-            res[self.mult_slot + per * r] += c[r] * ctx.s;
+        let mut b = zero_rows::<T>();
+        if ctx.is_static() {
+            self.law.rate(&sf, &mut b);
+        } else {
+            self.law.discrete_gradient(&si, &sf, &mut b);
         }
-        if !ctx.ed() {
-            return;
-        }
-        // ED: velocity-level multipliers λ_d, rate operators at i and f.
-        let lam_d = self.multipliers(ctx, y, true);
-        let mut b_i = zero_rows::<T>();
-        let mut b_f = zero_rows::<T>();
-        self.law.rate(&si, &mut b_i);
-        self.law.rate(&sf, &mut b_f);
-        let rf = sf.r;
-        let h = ctx.h;
-        // −P_f ∋ (1/12)(B_f − B_i)ᵀ λ_d ; −P_j/6 ∋ −(1/12)(B_i + B_f)ᵀ λ_d.
-        let mut ld12 = [T::zero(); MAX_ROWS];
-        for r in 0..n {
-            ld12[r] = lam_d[r] / 12.0;
-        }
-        let mut neg = [T::zero(); MAX_ROWS];
-        for r in 0..n {
-            neg[r] = -ld12[r];
-        }
-        self.add_forces(ctx, &b_f, &ld12[..n], &rf, false, res);
-        self.add_forces(ctx, &b_i, &neg[..n], &ri, false, res);
-        self.add_forces(ctx, &b_i, &neg[..n], &ri, true, res);
-        self.add_forces(ctx, &b_f, &neg[..n], &rf, true, res);
-        // Velocity-level j-condition: B(q_i) V_j − B(q_f) V_f = 0.
-        let mut vj = [(V3::zero(), V3::zero()); 2];
-        let mut vf = [(V3::zero(), V3::zero()); 2];
-        for k in 0..2 {
-            if let (Some(d), Some(j)) = (self.slots[k].delta, self.slots[k].jump) {
-                vj[k] = (v3(y, j).scale_f(1.0 / h), v3(y, j + 3).scale_f(1.0 / h));
-                vf[k] = (
-                    v3(y, d).scale_f(2.0 / h) - vj[k].0,
-                    rs[k].scale_f(2.0 / h) - vj[k].1,
-                );
-            }
-        }
-        let mut qj = [T::zero(); MAX_COORDS];
-        let mut qf = [T::zero(); MAX_COORDS];
-        for c in 0..self.coords.len() {
-            let d = y[self.coord_slot + 2 * c];
-            qj[c] = y[self.coord_slot + 2 * c + 1] / h;
-            qf[c] = d * (2.0 / h) - qj[c];
-        }
-        let nc = self.coords.len();
-        let mut ci = [T::zero(); MAX_ROWS];
-        let mut cf = [T::zero(); MAX_ROWS];
-        self.apply_rate(&b_i, &vj, &ri, &qj[..nc], &mut ci);
-        self.apply_rate(&b_f, &vf, &rf, &qf[..nc], &mut cf);
-        for r in 0..n {
-            res[self.mult_slot + 2 * r + 1] += (ci[r] - cf[r]) * (ctx.s * h);
-        }
+        let (mut b_i, mut b_f) = (zero_rows::<T>(), zero_rows::<T>());
+        let rates = ctx.ed().then(|| {
+            self.law.rate(&si, &mut b_i);
+            self.law.rate(&sf, &mut b_f);
+            (&b_i, &b_f)
+        });
+        let terms = ConstraintTerms {
+            c_f: &c[..n],
+            b: &b,
+            rates,
+        };
+        add_constraint_equations(ctx, &map, &terms, y, res);
     }
 }
 
