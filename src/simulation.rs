@@ -3,7 +3,7 @@
 
 use crate::elements::StepCtx;
 use crate::integrator::{Integrator, StepFailure, StepReport};
-use crate::joints::Side;
+use crate::joints::RateTerm;
 use crate::model::{Analysis, Model, ModelErrors, Scheme, SimulationSettings};
 use crate::sensors::{Channels, Totals};
 use crate::state::State;
@@ -459,16 +459,23 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
     for a in 0..lay.n_nodes {
         blocks.push((0..6).map(|k| lay.node_delta(a) + k).collect());
     }
+    // Each joint's block: the unknowns its velocity-level rows touch.
+    let mut joint_terms: Vec<Vec<(usize, RateTerm)>> = Vec::new();
     for j in &sys.joints {
+        let mut terms = Vec::new();
+        j.rate_terms(state, &mut terms);
         let mut b = Vec::new();
-        for s in &j.sides {
-            if let Side::Node(a) = s {
-                b.extend((0..6).map(|k| lay.node_delta(*a) + k));
+        for (_, t) in &terms {
+            match *t {
+                RateTerm::Node { node, .. } => b.extend((0..6).map(|k| lay.node_delta(node) + k)),
+                RateTerm::Coord { coord, .. } => b.push(lay.coord_delta(coord)),
             }
         }
-        b.extend(j.coords.iter().map(|&c| lay.coord_delta(c)));
-        b.extend((0..j.n_rows()).map(|r| lay.mult(j.row0 + r)));
+        b.extend((0..j.n_rows()).map(|r| lay.mult(j.row0() + r)));
+        b.sort_unstable();
+        b.dedup();
         blocks.push(b);
+        joint_terms.push(terms);
     }
     for d in &sys.drives {
         blocks.push(vec![lay.coord_delta(d.coord), lay.mult(d.row)]);
@@ -536,27 +543,25 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
         rhs[lay.coord_delta(c)] = coord_weight * state.coord_rates[c];
     }
     for (ji, j) in sys.joints.iter().enumerate() {
-        let (b, js) = j.rate_rows(state);
         let blk = lay.n_nodes + ji;
-        for r in 0..j.n_rows() {
-            let row = lay.mult(j.row0 + r);
-            for (k, s) in j.sides.iter().enumerate() {
-                if let Side::Node(a) = s {
-                    let d = lay.node_delta(*a);
+        for (r, term) in &joint_terms[ji] {
+            let row = lay.mult(j.row0() + r);
+            match *term {
+                RateTerm::Node { node, v, omega } => {
+                    let d = lay.node_delta(node);
                     // Material angular velocity: B_W = B_ω R.
-                    let bw =
-                        js.r[k].tmul_v(&V3([b[r][6 * k + 3], b[r][6 * k + 4], b[r][6 * k + 5]]));
+                    let bw = state.nodes[node].r.tmul_v(&omega);
                     for c in 0..3 {
-                        for (col, v) in [(d + c, b[r][6 * k + c]), (d + 3 + c, bw.0[c])] {
-                            add(&mut m, blk, row, col, v);
-                            add(&mut m, blk, col, row, v);
+                        for (col, val) in [(d + c, v.0[c]), (d + 3 + c, bw.0[c])] {
+                            add(&mut m, blk, row, col, val);
+                            add(&mut m, blk, col, row, val);
                         }
                     }
                 }
-            }
-            for (c, &g) in j.coords.iter().enumerate() {
-                add(&mut m, blk, row, lay.coord_delta(g), b[r][12 + c]);
-                add(&mut m, blk, lay.coord_delta(g), row, b[r][12 + c]);
+                RateTerm::Coord { coord, value } => {
+                    add(&mut m, blk, row, lay.coord_delta(coord), value);
+                    add(&mut m, blk, lay.coord_delta(coord), row, value);
+                }
             }
         }
     }

@@ -100,7 +100,19 @@ impl BeamPath {
     /// Element and local coordinate of ζ (clamped to the path; a boundary belongs to the
     /// element after it, the end to the last element).
     pub fn locate(&self, zeta: f64) -> (usize, f64) {
-        let e = (zeta.max(0.0).floor() as usize).min(self.elements - 1);
+        self.locate_in(zeta, self.all())
+    }
+
+    /// All elements, as a range for the `_in` methods.
+    pub fn all(&self) -> (usize, usize) {
+        (0, self.elements - 1)
+    }
+
+    /// As [`Self::locate`], with the element restricted to `first ..= last` (beyond them the
+    /// end elements of the range extend): a sliding joint whose unknowns cover a window of
+    /// elements evaluates its path within it.
+    pub fn locate_in(&self, zeta: f64, (first, last): (usize, usize)) -> (usize, f64) {
+        let e = (zeta.max(first as f64).floor() as usize).clamp(first, last);
         (e, zeta - e as f64)
     }
 
@@ -131,11 +143,26 @@ impl BeamPath {
 
     /// Shape-function weights at ζ: `P(ζ) = Σ w_α X^α`.
     pub fn weights<T: Real>(&self, zeta: T) -> NodeWeights<T> {
-        let (e, _) = self.locate(zeta.re());
+        self.weights_in(zeta, self.all())
+    }
+
+    pub fn weights_in<T: Real>(&self, zeta: T, range: (usize, usize)) -> NodeWeights<T> {
+        let (e, _) = self.locate_in(zeta.re(), range);
         let (h, _) = self.shape(zeta - e as f64);
         let mut w = NodeWeights::new();
         for (a, ha) in h.iter().enumerate().take(self.order + 1) {
             w.add(self.node(e, a), *ha);
+        }
+        w
+    }
+
+    /// Weights of the path's tangent at ζ: `P′(ζ) = Σ w_α X^α` (per unit ζ).
+    pub fn tangent_weights<T: Real>(&self, zeta: T, range: (usize, usize)) -> NodeWeights<T> {
+        let (e, _) = self.locate_in(zeta.re(), range);
+        let (_, dh) = self.shape(zeta - e as f64);
+        let mut w = NodeWeights::new();
+        for (a, da) in dh.iter().enumerate().take(self.order + 1) {
+            w.add(self.node(e, a), *da);
         }
         w
     }
@@ -160,8 +187,12 @@ impl BeamPath {
     /// exactly, bounded and accurate to round-off as ζ_f → ζ_i, within one element or across
     /// boundaries (a convex combination of the pieces' secants).
     pub fn secant<T: Real>(&self, zi: T, zf: T) -> NodeWeights<T> {
-        let (ei, _) = self.locate(zi.re());
-        let (ef, _) = self.locate(zf.re());
+        self.secant_in(zi, zf, self.all())
+    }
+
+    pub fn secant_in<T: Real>(&self, zi: T, zf: T, range: (usize, usize)) -> NodeWeights<T> {
+        let (ei, _) = self.locate_in(zi.re(), range);
+        let (ef, _) = self.locate_in(zf.re(), range);
         let mut out = NodeWeights::new();
         if ei == ef {
             let s = self.element_secant(zi - ei as f64, zf - ei as f64);
@@ -187,6 +218,58 @@ impl BeamPath {
             start = end;
         }
         out
+    }
+}
+
+/// The user's contact coordinate η = s/L (fraction of the beam's reference length) and the
+/// element coordinate ζ: piecewise linear through the element ends, exact at the boundaries
+/// (η = ζ/N_e on a uniformly meshed beam). Beyond the ends the end elements extend linearly.
+#[derive(Clone, Debug)]
+pub struct ArcMap {
+    /// η at the element boundaries, 0 … 1 (N_e + 1 values).
+    ends: Vec<f64>,
+}
+
+impl ArcMap {
+    /// From the elements' arc-length spans and the beam's length.
+    pub fn new(spans: &[(f64, f64)], length: f64) -> Self {
+        let mut ends: Vec<f64> = spans.iter().map(|&(a, _)| a / length).collect();
+        ends.push(1.0);
+        ends[0] = 0.0;
+        ArcMap { ends }
+    }
+
+    pub fn elements(&self) -> usize {
+        self.ends.len() - 1
+    }
+
+    fn element_of_eta(&self, eta: f64) -> usize {
+        let n = self.elements();
+        self.ends[1..n].iter().take_while(|&&b| eta >= b).count()
+    }
+
+    pub fn zeta(&self, eta: f64) -> f64 {
+        let e = self.element_of_eta(eta);
+        e as f64 + (eta - self.ends[e]) / (self.ends[e + 1] - self.ends[e])
+    }
+
+    /// dζ/dη at η (the right derivative at a boundary).
+    pub fn dzeta_deta(&self, eta: f64) -> f64 {
+        let e = self.element_of_eta(eta);
+        1.0 / (self.ends[e + 1] - self.ends[e])
+    }
+
+    pub fn eta(&self, zeta: f64) -> f64 {
+        let e = (zeta.max(0.0).floor() as usize).min(self.elements() - 1);
+        self.ends[e] + (zeta - e as f64) * (self.ends[e + 1] - self.ends[e])
+    }
+
+    /// Whether all elements have the same length (to 1e-9), so that η = ζ/N_e exactly.
+    pub fn is_uniform(&self) -> bool {
+        let n = self.elements() as f64;
+        self.ends
+            .windows(2)
+            .all(|w| ((w[1] - w[0]) * n - 1.0).abs() < 1e-9)
     }
 }
 

@@ -14,9 +14,10 @@ use crate::state::State;
 use crate::system::layout::Layout;
 use crate::vec3::V3;
 
-/// Largest local block (unknowns of one kernel). A two-node joint under ED has at most
-/// 2×12 + 2×2 + 2×6 = 40.
-pub const MAX_LOCAL: usize = 64;
+/// Largest local block (unknowns of one kernel). A sliding clamp on cubic elements under ED
+/// has the most: a window of 10 beam nodes and the follower (11×12), ζ and its jump, and
+/// 2×6 multipliers = 146.
+pub const MAX_LOCAL: usize = 160;
 
 /// What a kernel needs to know about the step being taken.
 pub struct StepCtx<'a> {
@@ -53,6 +54,15 @@ pub trait Kernel {
     fn unknowns(&self) -> &[usize];
     /// Residual contributions over the local unknowns `y` (rows scaled by 1/h: forces).
     fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], r: &mut [T]);
+    /// The structurally nonzero entries of the tangent block (row-major), probed at a
+    /// generic state and unknowns `y`. A kernel whose block depends on where the step goes
+    /// (a sliding joint's contact point changing element) covers every case it allows.
+    fn structure(&self, ctx: &StepCtx, y: &[f64]) -> Vec<bool>
+    where
+        Self: Sized,
+    {
+        block_structure(self, ctx, y)
+    }
 }
 
 /// Adds the kernel's residual into `res` and, if `jac` is given, its exact tangent block into

@@ -124,7 +124,7 @@ impl Integrator {
     /// coordinates and multipliers nonzero), so that no entry is missed because the initial
     /// configuration happens to be aligned with the axes.
     pub fn block_masks(sys: &System, h: f64) -> Vec<Vec<bool>> {
-        use crate::elements::block_structure;
+        use crate::elements::Kernel;
         use crate::rotation::exp_map;
         let n = sys.layout.n_unknowns();
         let wiggle = |k: f64| 0.37 + (k * 12.9898).sin();
@@ -167,13 +167,13 @@ impl Integrator {
                 .map(|i| 1e-2 * wiggle(t * 100.0 + i as f64))
                 .collect();
             let mut all: Vec<Vec<bool>> = Vec::new();
-            all.extend(sys.inertias.iter().map(|k| block_structure(k, &ctx, &y)));
-            all.extend(sys.beams.iter().map(|k| block_structure(k, &ctx, &y)));
-            all.extend(sys.joints.iter().map(|k| block_structure(k, &ctx, &y)));
-            all.extend(sys.springs.iter().map(|k| block_structure(k, &ctx, &y)));
-            all.extend(sys.drives.iter().map(|k| block_structure(k, &ctx, &y)));
-            all.extend(sys.loads.iter().map(|k| block_structure(k, &ctx, &y)));
-            all.extend(sys.line_loads.iter().map(|k| block_structure(k, &ctx, &y)));
+            all.extend(sys.inertias.iter().map(|k| k.structure(&ctx, &y)));
+            all.extend(sys.beams.iter().map(|k| k.structure(&ctx, &y)));
+            all.extend(sys.joints.iter().map(|k| k.structure(&ctx, &y)));
+            all.extend(sys.springs.iter().map(|k| k.structure(&ctx, &y)));
+            all.extend(sys.drives.iter().map(|k| k.structure(&ctx, &y)));
+            all.extend(sys.loads.iter().map(|k| k.structure(&ctx, &y)));
+            all.extend(sys.line_loads.iter().map(|k| k.structure(&ctx, &y)));
             if masks.is_empty() {
                 masks = all;
             } else {

@@ -18,6 +18,7 @@ pub mod kinematics;
 pub mod prismatic;
 pub mod revolute;
 pub mod screw;
+pub mod sliding;
 pub mod spherical;
 pub mod universal;
 
@@ -126,6 +127,88 @@ impl ConstraintLaw for JointLaw {
     }
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
         dispatch!(self, j => j.rate(s, out))
+    }
+}
+
+/// One term of a velocity-level constraint row `Ċ = B V`: the coefficients of a node's
+/// velocity and (spatial) angular velocity, or of a coordinate's rate.
+#[derive(Clone, Copy, Debug)]
+pub enum RateTerm {
+    Node {
+        node: usize,
+        v: V3<f64>,
+        omega: V3<f64>,
+    },
+    Coord {
+        coord: usize,
+        value: f64,
+    },
+}
+
+/// A joint of a system: between two nodes (or a node and the ground), or a sliding joint
+/// between a follower and a beam.
+#[derive(Clone, Debug)]
+pub enum Joint {
+    Pair(JointKernel),
+    Sliding(sliding::SlidingJoint),
+}
+
+macro_rules! each_joint {
+    ($self:expr, $j:ident => $e:expr) => {
+        match $self {
+            Joint::Pair($j) => $e,
+            Joint::Sliding($j) => $e,
+        }
+    };
+}
+
+impl Joint {
+    pub fn name(&self) -> &str {
+        each_joint!(self, j => &j.name)
+    }
+    pub fn n_rows(&self) -> usize {
+        each_joint!(self, j => j.n_rows())
+    }
+    /// First global constraint row.
+    pub fn row0(&self) -> usize {
+        each_joint!(self, j => j.row0)
+    }
+    pub fn as_sliding(&self) -> Option<&sliding::SlidingJoint> {
+        match self {
+            Joint::Sliding(s) => Some(s),
+            Joint::Pair(_) => None,
+        }
+    }
+    /// Work of the constraint forces over a converged step (zero to round-off).
+    pub fn step_work(&self, ctx: &StepCtx, y: &[f64]) -> f64 {
+        each_joint!(self, j => j.step_work(ctx, y))
+    }
+    /// Constraint values at the end of a converged step.
+    pub fn violation(&self, ctx: &StepCtx, y: &[f64]) -> [f64; MAX_ROWS] {
+        each_joint!(self, j => j.violation(ctx, y))
+    }
+    /// Force and moment on node2 (the follower) at the joint point, and the joint frame.
+    pub fn reaction(&self, ctx: &StepCtx, y: &[f64]) -> (V3<f64>, V3<f64>, M3<f64>) {
+        each_joint!(self, j => j.reaction(ctx, y))
+    }
+    pub fn values_at(&self, state: &crate::state::State) -> [f64; MAX_ROWS] {
+        each_joint!(self, j => j.values_at(state))
+    }
+    /// The velocity-level rows at a state, as (local row, term) pairs.
+    pub fn rate_terms(&self, state: &crate::state::State, out: &mut Vec<(usize, RateTerm)>) {
+        each_joint!(self, j => j.rate_terms(state, out))
+    }
+}
+
+impl Kernel for Joint {
+    fn unknowns(&self) -> &[usize] {
+        each_joint!(self, j => j.unknowns())
+    }
+    fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], r: &mut [T]) {
+        each_joint!(self, j => j.residual(ctx, y, r))
+    }
+    fn structure(&self, ctx: &StepCtx, y: &[f64]) -> Vec<bool> {
+        each_joint!(self, j => j.structure(ctx, y))
     }
 }
 
@@ -403,6 +486,34 @@ impl JointKernel {
         let mut c = [0.0; MAX_ROWS];
         self.law.value(&sf, &mut c);
         c
+    }
+
+    /// The velocity-level rows at a state, as (local row, term) pairs.
+    pub fn rate_terms(&self, state: &crate::state::State, out: &mut Vec<(usize, RateTerm)>) {
+        let (b, _) = self.rate_rows(state);
+        for (r, row) in b.iter().enumerate().take(self.n_rows()) {
+            for (k, side) in self.sides.iter().enumerate() {
+                if let Side::Node(node) = side {
+                    out.push((
+                        r,
+                        RateTerm::Node {
+                            node: *node,
+                            v: v3(row, 6 * k),
+                            omega: v3(row, 6 * k + 3),
+                        },
+                    ));
+                }
+            }
+            for (c, &coord) in self.coords.iter().enumerate() {
+                out.push((
+                    r,
+                    RateTerm::Coord {
+                        coord,
+                        value: row[12 + c],
+                    },
+                ));
+            }
+        }
     }
 
     /// Velocity-level rows of the constraint at a state (for initial-velocity projection).

@@ -15,7 +15,7 @@ use crate::joints::{
     clamp::Clamp, cylindrical::Cylindrical, prismatic::Prismatic, revolute::Revolute, screw::Screw,
     spherical::Spherical, universal::Universal,
 };
-use crate::joints::{Attachment, ConstraintLaw, JointKernel, JointLaw, Side};
+use crate::joints::{Attachment, ConstraintLaw, Joint, JointKernel, JointLaw, Side};
 use crate::model::{self, Model, ModelError, ModelErrors, Scheme, GROUND};
 use crate::rotation::{exp_map, orthonormalize};
 use crate::state::{NodeState, State};
@@ -111,7 +111,7 @@ pub struct System {
     pub inertias: Vec<NodeInertia>,
     pub beams: Vec<BeamElement>,
     pub beam_info: Vec<BeamInfo>,
-    pub joints: Vec<JointKernel>,
+    pub joints: Vec<Joint>,
     pub joint_info: Vec<JointInfo>,
     pub springs: Vec<CoordinateSpring>,
     pub drives: Vec<CoordinateDrive>,
@@ -379,14 +379,14 @@ impl System {
             for k in 0..6 {
                 row_names.push((name.clone(), k));
             }
-            joints.push(JointKernel::new(
+            joints.push(Joint::Pair(JointKernel::new(
                 name,
                 law,
                 [Side::Node(*a), Side::Node(*cm)],
                 vec![],
                 row,
                 &layout,
-            ));
+            )));
             row += 6;
         }
 
@@ -552,14 +552,14 @@ impl System {
                 kernel: joints.len(),
                 coords: info_coords,
             });
-            joints.push(JointKernel::new(
+            joints.push(Joint::Pair(JointKernel::new(
                 j.name().to_string(),
                 law,
                 sides,
                 coords,
                 row,
                 &layout,
-            ));
+            )));
             row += nr;
         }
         // Drive rows come after all joint rows; give names in row order.

@@ -4,7 +4,7 @@
 //! a singular Newton matrix.
 
 use super::System;
-use crate::joints::Side;
+use crate::joints::RateTerm;
 use crate::state::State;
 
 /// One linear dependence among constraint rows: the owners (joint or drive names) of the rows
@@ -20,19 +20,20 @@ fn constraint_matrix(sys: &System, state: &State) -> Vec<Vec<f64>> {
     let n_nodes = sys.layout.n_nodes;
     let cols = 6 * n_nodes + sys.layout.n_coords;
     let mut b = vec![vec![0.0; cols]; sys.layout.n_rows];
+    let mut terms = Vec::new();
     for j in &sys.joints {
-        let (rows, _) = j.rate_rows(state);
-        for r in 0..j.n_rows() {
-            let row = &mut b[j.row0 + r];
-            for (k, side) in j.sides.iter().enumerate() {
-                if let Side::Node(a) = side {
-                    for c in 0..6 {
-                        row[6 * a + c] += rows[r][6 * k + c];
+        terms.clear();
+        j.rate_terms(state, &mut terms);
+        for (r, term) in &terms {
+            let row = &mut b[j.row0() + r];
+            match *term {
+                RateTerm::Node { node, v, omega } => {
+                    for c in 0..3 {
+                        row[6 * node + c] += v.0[c];
+                        row[6 * node + 3 + c] += omega.0[c];
                     }
                 }
-            }
-            for (c, &g) in j.coords.iter().enumerate() {
-                row[6 * n_nodes + g] += rows[r][12 + c];
+                RateTerm::Coord { coord, value } => row[6 * n_nodes + coord] += value,
             }
         }
     }

@@ -1,0 +1,655 @@
+//! Sliding joints (seed sections 5–6, corrected in `reference/sliding-joint-notes.md`): a
+//! follower stays in contact with a flexible beam at a moving point, located by the element
+//! coordinate ζ ∈ [0, N_e] — a joint coordinate, an unknown of the problem.
+//!
+//! Every member of the family is `C = Σ_α h^α(ζ) g(node α, follower)`, a two-node law `g`
+//! between each beam node (its section triad) and the follower, blended by the beam's global
+//! shape functions:
+//! - **sliding joint** (eq. 28): `g = Y − X^α`, so `C = Y − P(ζ)`;
+//! - **sliding screw joint** (eq. 34, the notes' "Option B"): adds `g = e₂^{kα}·e₃ˡ`, the
+//!   interpolated director `Σ h^α e₂^{kα}` stays orthogonal to the follower's e₃, so the
+//!   follower turns with the beam's pre-twist and elastic twist;
+//! - **sliding clamp**: adds all three orientation rows (a sleeve that cannot turn on the
+//!   beam).
+//!
+//! Exact split (eqs. 32–33 generalised): with `h_m = (h_i + h_f)/2`, the secant
+//! `S = (h_f − h_i)/(ζ_f − ζ_i)` ([`BeamPath::secant_in`], division-free) and `g_m = (g_i + g_f)/2`,
+//! `C_f − C_i = Σ_α h_m^α (g_f^α − g_i^α) + Δζ Σ_α S^α g_m^α`, and each `g_f − g_i` is the
+//! two-node law's exact discrete gradient (eqs. 8, 15). Hence `B^D` rows: `h_m^α B_g^D` on node
+//! α and the follower, `Σ S^α g_m^α` on ζ; the forces `B^Dᵀ sλ` do no work, across element
+//! boundaries too. For eq. (28) this is eq. (33) with the total midpoint positions.
+//!
+//! The unknowns cover a *window* of elements around the one holding ζ at the start of the step
+//! (one either side): the Newton matrix's pattern follows the contact point as it travels, and
+//! [`SlidingJoint::place_window`] moves it between steps.
+
+use super::equations::*;
+use super::kinematics::*;
+use super::{Attachment, ConstraintLaw, JointState, Rows, Side, MAX_COORDS, MAX_ROWS, NCOL};
+use crate::beam::path::{BeamPath, NodeWeights};
+use crate::beam::shape::MAX_NODES;
+use crate::elements::{v3, Kernel, StepCtx};
+use crate::rotation::cayley;
+use crate::scalar::Real;
+use crate::state::State;
+use crate::system::layout::Layout;
+use crate::vec3::{M3, V3};
+
+/// Most beam nodes in a window of three cubic elements.
+pub const MAX_WINDOW_NODES: usize = 3 * (MAX_NODES - 1) + 1;
+const FOLLOWER_COL: usize = 6 * MAX_WINDOW_NODES;
+const ZETA_COL: usize = FOLLOWER_COL + 6;
+/// Gradient columns: the window's nodes, the follower, ζ.
+const NC: usize = ZETA_COL + 1;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SlidingKind {
+    /// The follower's point stays on the beam (3 rows).
+    Point,
+    /// ... and turns with the beam's section about its axis (4 rows).
+    Screw,
+    /// ... and keeps its orientation relative to the section (6 rows).
+    Clamp,
+}
+
+/// The two-node law `g` between one beam node (side 0: its section triad, no offset) and the
+/// follower (side 1: its contact point and joint triad).
+#[derive(Clone, Debug)]
+pub struct ContactLaw {
+    pub kind: SlidingKind,
+    pub at: [Attachment; 2],
+}
+
+impl ConstraintLaw for ContactLaw {
+    fn n_rows(&self) -> usize {
+        match self.kind {
+            SlidingKind::Point => 3,
+            SlidingKind::Screw => 4,
+            SlidingKind::Clamp => 6,
+        }
+    }
+    fn value<T: Real>(&self, s: &JointState<T>, out: &mut [T]) {
+        points_value(s, &self.at, out);
+        match self.kind {
+            SlidingKind::Point => {}
+            SlidingKind::Screw => out[3] = dot_value(s, &self.at, 1, 2), // eq. (34)
+            SlidingKind::Clamp => orientation_value(s, &self.at, &mut out[3..6]),
+        }
+    }
+    fn discrete_gradient<T: Real>(
+        &self,
+        si: &JointState<T>,
+        sf: &JointState<T>,
+        out: &mut Rows<T>,
+    ) {
+        points_gradient(si, sf, &self.at, out, 0);
+        match self.kind {
+            SlidingKind::Point => {}
+            SlidingKind::Screw => {
+                add_rotation_pair(&mut out[3], dot_mid(si, sf, &self.at, 1, 2).0, T::one())
+            }
+            SlidingKind::Clamp => orientation_gradient(si, sf, &self.at, out, 3),
+        }
+    }
+    fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
+        points_rate(s, &self.at, out, 0);
+        match self.kind {
+            SlidingKind::Point => {}
+            SlidingKind::Screw => {
+                add_rotation_pair(&mut out[3], dot_h(s, &self.at, 1, 2), T::one())
+            }
+            SlidingKind::Clamp => orientation_rate(s, &self.at, out, 3),
+        }
+    }
+}
+
+/// A sliding joint in a system.
+#[derive(Clone, Debug)]
+pub struct SlidingJoint {
+    pub name: String,
+    pub law: ContactLaw,
+    /// The beam as a path, and the system node of each of its nodes (in order along it).
+    pub path: BeamPath,
+    pub beam_nodes: Vec<usize>,
+    pub follower: Side,
+    /// Global index of ζ among the coordinates.
+    pub coord: usize,
+    pub row0: usize,
+    /// First and last element the unknowns cover.
+    window: (usize, usize),
+    layout: Layout,
+    unknowns: Vec<usize>,
+    follower_slot: Option<usize>,
+    coord_slot: usize,
+    mult_slot: usize,
+}
+
+/// Dense per-window-node weights.
+type Weights<T> = [T; MAX_WINDOW_NODES];
+
+/// Everything one evaluation of the joint produces.
+struct Terms<T> {
+    c_f: [T; MAX_ROWS],
+    b: Grad<T, NC>,
+    rates: Option<(Grad<T, NC>, Grad<T, NC>)>,
+    nodes: [Option<NodeColumns<T>>; MAX_WINDOW_NODES + 1],
+}
+
+impl SlidingJoint {
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        name: String,
+        law: ContactLaw,
+        path: BeamPath,
+        beam_nodes: Vec<usize>,
+        follower: Side,
+        coord: usize,
+        row0: usize,
+        layout: &Layout,
+        zeta0: f64,
+    ) -> Self {
+        assert_eq!(beam_nodes.len(), path.elements * path.order + 1);
+        let mut j = SlidingJoint {
+            name,
+            law,
+            path,
+            beam_nodes,
+            follower,
+            coord,
+            row0,
+            window: (usize::MAX, 0),
+            layout: *layout,
+            unknowns: vec![],
+            follower_slot: None,
+            coord_slot: 0,
+            mult_slot: 0,
+        };
+        j.place_window(zeta0);
+        j
+    }
+
+    pub fn n_rows(&self) -> usize {
+        self.law.n_rows()
+    }
+
+    /// The window of elements for a step starting at ζ: the element holding it and one either
+    /// side.
+    fn window_for(&self, zeta: f64) -> (usize, usize) {
+        let (e, _) = self.path.locate(zeta);
+        (e.saturating_sub(1), (e + 1).min(self.path.elements - 1))
+    }
+
+    pub fn window(&self) -> (usize, usize) {
+        self.window
+    }
+
+    /// Moves the window to a step starting at ζ; true if it changed (then the kernel's
+    /// unknowns, and so the Newton matrix's pattern, changed).
+    pub fn place_window(&mut self, zeta: f64) -> bool {
+        let w = self.window_for(zeta);
+        if w == self.window {
+            return false;
+        }
+        self.window = w;
+        let layout = self.layout;
+        let ed = layout.ed();
+        let mut unknowns = Vec::new();
+        let push_node = |unknowns: &mut Vec<usize>, a: usize| {
+            unknowns.extend((0..6).map(|c| layout.node_delta(a) + c));
+            if ed {
+                unknowns.extend((0..6).map(|c| layout.node_jump(a) + c));
+            }
+        };
+        for k in self.first_node()..=self.last_node() {
+            push_node(&mut unknowns, self.beam_nodes[k]);
+        }
+        self.follower_slot = match self.follower {
+            Side::Node(a) => {
+                let at = unknowns.len();
+                push_node(&mut unknowns, a);
+                Some(at)
+            }
+            Side::Ground { .. } => None,
+        };
+        self.coord_slot = unknowns.len();
+        unknowns.push(layout.coord_delta(self.coord));
+        if ed {
+            unknowns.push(layout.coord_jump(self.coord));
+        }
+        self.mult_slot = unknowns.len();
+        for r in 0..self.n_rows() {
+            unknowns.push(layout.mult(self.row0 + r));
+            if ed {
+                unknowns.push(layout.mult_jump(self.row0 + r));
+            }
+        }
+        self.unknowns = unknowns;
+        true
+    }
+
+    fn first_node(&self) -> usize {
+        self.window.0 * self.path.order
+    }
+    fn last_node(&self) -> usize {
+        (self.window.1 + 1) * self.path.order
+    }
+
+    /// The range ζ may take within a step: the window, except that at the beam's ends it
+    /// extends (a contact point past an end is detected after the step converges).
+    pub fn zeta_limits(&self) -> (f64, f64) {
+        let lo = if self.window.0 == 0 {
+            f64::NEG_INFINITY
+        } else {
+            self.window.0 as f64
+        };
+        let hi = if self.window.1 + 1 == self.path.elements {
+            f64::INFINITY
+        } else {
+            (self.window.1 + 1) as f64
+        };
+        (lo, hi)
+    }
+
+    fn per(&self) -> usize {
+        if self.layout.ed() {
+            2
+        } else {
+            1
+        }
+    }
+
+    /// Dense window weights from a list over beam nodes.
+    fn dense<T: Real>(&self, w: &NodeWeights<T>) -> Weights<T> {
+        let mut out = [T::zero(); MAX_WINDOW_NODES];
+        let first = self.first_node();
+        for (n, v) in w.iter() {
+            debug_assert!(n >= first && n <= self.last_node());
+            out[n - first] += v;
+        }
+        out
+    }
+
+    /// A node's pose (as `T`) at the start of the step, and at its end from the local block.
+    fn pose<T: Real>(
+        &self,
+        state: &State,
+        side: Side,
+        slot: Option<usize>,
+        y: Option<&[T]>,
+    ) -> (V3<T>, M3<T>) {
+        let (x, r) = match side {
+            Side::Node(a) => (state.nodes[a].x, state.nodes[a].r),
+            Side::Ground { x, r } => (x, r),
+        };
+        let (x, r) = (V3::from_f64(x), M3::from_f64(&r));
+        match (slot, y) {
+            (Some(d), Some(y)) => (x + v3(y, d), r.mul_m(&cayley(&v3(y, d + 3)))),
+            _ => (x, r),
+        }
+    }
+
+    fn pair_state<T: Real>(node: (V3<T>, M3<T>), follower: (V3<T>, M3<T>)) -> JointState<T> {
+        JointState {
+            x: [node.0, follower.0],
+            r: [node.1, follower.1],
+            q: [T::zero(); MAX_COORDS],
+        }
+    }
+
+    /// Adds `w·pair` (the pair law's 12 columns) into the node's and the follower's columns.
+    fn blend<T: Real>(b: &mut Grad<T, NC>, pair: &Rows<T>, w: T, col: usize, n: usize) {
+        for r in 0..n {
+            for c in 0..6 {
+                b[r][col + c] += pair[r][c] * w;
+                b[r][FOLLOWER_COL + c] += pair[r][6 + c] * w;
+            }
+        }
+    }
+
+    /// The joint's value and gradients for a step (or a static solve) at the local block `y`.
+    fn terms<T: Real>(&self, ctx: &StepCtx, y: &[T]) -> Terms<T> {
+        let n = self.n_rows();
+        let range = self.window;
+        let zi = ctx.state.coords[self.coord];
+        let zi_t = T::cst(zi);
+        let zf = zi_t + y[self.coord_slot];
+        let statics = ctx.is_static();
+        let ed = ctx.ed();
+        let hi = self.dense(&self.path.weights_in(zi_t, range));
+        let hf = self.dense(&self.path.weights_in(zf, range));
+        let dhf = self.dense(&self.path.tangent_weights(zf, range));
+        let (sec, dhi) = if statics {
+            ([T::zero(); MAX_WINDOW_NODES], [T::zero(); MAX_WINDOW_NODES])
+        } else {
+            (
+                self.dense(&self.path.secant_in(zi_t, zf, range)),
+                self.dense(&self.path.tangent_weights(zi_t, range)),
+            )
+        };
+        let fol_i = self.pose::<T>(ctx.state, self.follower, None, None);
+        let fol_f = self.pose(ctx.state, self.follower, self.follower_slot, Some(y));
+        let per = self.per();
+        let mut t = Terms {
+            c_f: [T::zero(); MAX_ROWS],
+            b: zero_grad(),
+            rates: ed.then(|| (zero_grad(), zero_grad())),
+            nodes: [None; MAX_WINDOW_NODES + 1],
+        };
+        let first = self.first_node();
+        let zero = |w: &T| w.re() == 0.0;
+        for j in 0..=(self.last_node() - first) {
+            let active =
+                !(zero(&hi[j]) && zero(&hf[j]) && zero(&sec[j]) && zero(&dhf[j]) && zero(&dhi[j]));
+            if !active {
+                continue;
+            }
+            let side = Side::Node(self.beam_nodes[first + j]);
+            let slot = 6 * per * j;
+            let node_i = self.pose::<T>(ctx.state, side, None, None);
+            let node_f = self.pose(ctx.state, side, Some(slot), Some(y));
+            let si = Self::pair_state(node_i, fol_i);
+            let sf = Self::pair_state(node_f, fol_f);
+            let (mut gi, mut gf) = ([T::zero(); MAX_ROWS], [T::zero(); MAX_ROWS]);
+            self.law.value(&si, &mut gi);
+            self.law.value(&sf, &mut gf);
+            let mut pair = [[T::zero(); NCOL]; MAX_ROWS];
+            for r in 0..n {
+                t.c_f[r] += hf[j] * gf[r];
+            }
+            if statics {
+                // B(q_f): Σ h_f B_g(f) and, on ζ, P′-like Σ h_f′ g_f.
+                self.law.rate(&sf, &mut pair);
+                Self::blend(&mut t.b, &pair, hf[j], 6 * j, n);
+                for r in 0..n {
+                    t.b[r][ZETA_COL] += dhf[j] * gf[r];
+                }
+            } else {
+                // B^D: Σ h_m B_g^D and, on ζ, Σ S g_m.
+                self.law.discrete_gradient(&si, &sf, &mut pair);
+                Self::blend(&mut t.b, &pair, (hi[j] + hf[j]) * 0.5, 6 * j, n);
+                for r in 0..n {
+                    t.b[r][ZETA_COL] += sec[j] * (gi[r] + gf[r]) * 0.5;
+                }
+            }
+            if let Some((b_i, b_f)) = t.rates.as_mut() {
+                pair = [[T::zero(); NCOL]; MAX_ROWS];
+                self.law.rate(&si, &mut pair);
+                Self::blend(b_i, &pair, hi[j], 6 * j, n);
+                pair = [[T::zero(); NCOL]; MAX_ROWS];
+                self.law.rate(&sf, &mut pair);
+                Self::blend(b_f, &pair, hf[j], 6 * j, n);
+                for r in 0..n {
+                    b_i[r][ZETA_COL] += dhi[j] * gi[r];
+                    b_f[r][ZETA_COL] += dhf[j] * gf[r];
+                }
+            }
+            t.nodes[j] = Some(NodeColumns {
+                col: 6 * j,
+                delta: slot,
+                jump: ed.then_some(slot + 6),
+                r_i: node_i.1,
+                r_f: node_f.1,
+            });
+        }
+        if let Some(d) = self.follower_slot {
+            t.nodes[MAX_WINDOW_NODES] = Some(NodeColumns {
+                col: FOLLOWER_COL,
+                delta: d,
+                jump: ed.then_some(d + 6),
+                r_i: fol_i.1,
+                r_f: fol_f.1,
+            });
+        }
+        t
+    }
+
+    fn with_map<T: Real, R>(&self, t: &Terms<T>, f: impl FnOnce(&ColumnMap<T>) -> R) -> R {
+        let mut nodes = [None; MAX_WINDOW_NODES + 1];
+        let mut k = 0;
+        for n in t.nodes.iter().flatten() {
+            nodes[k] = Some(*n);
+            k += 1;
+        }
+        let cols: [NodeColumns<T>; MAX_WINDOW_NODES + 1] = std::array::from_fn(|i| {
+            nodes[i].unwrap_or(NodeColumns {
+                col: 0,
+                delta: 0,
+                jump: None,
+                r_i: M3::identity(),
+                r_f: M3::identity(),
+            })
+        });
+        let coords = [CoordColumn {
+            col: ZETA_COL,
+            slot: self.coord_slot,
+        }];
+        let map = ColumnMap {
+            nodes: &cols[..k],
+            coords: &coords,
+            mult: self.mult_slot,
+            n_rows: self.n_rows(),
+        };
+        f(&map)
+    }
+
+    fn gather(&self, y: &[f64]) -> [f64; crate::elements::MAX_LOCAL] {
+        let mut buf = [0.0; crate::elements::MAX_LOCAL];
+        for (b, &g) in buf.iter_mut().zip(self.unknowns.iter()) {
+            *b = y[g];
+        }
+        buf
+    }
+
+    /// Work of the constraint forces over a converged step, `Δ·(B^Dᵀ sλ)` (zero: it equals
+    /// `sλ·(C_f − C_i)` and C_f = 0).
+    pub fn step_work(&self, ctx: &StepCtx, y: &[f64]) -> f64 {
+        let buf = self.gather(y);
+        let yl = &buf[..self.unknowns.len()];
+        let t = self.terms(ctx, yl);
+        self.with_map(&t, |map| {
+            let lam = map.multipliers(ctx, yl, false);
+            let mut bd = [0.0; MAX_ROWS];
+            gradient_times_increment(map, &t.b, yl, &mut bd);
+            (0..self.n_rows()).map(|r| lam[r] * bd[r]).sum()
+        })
+    }
+
+    /// Constraint values at the end of a converged step.
+    pub fn violation(&self, ctx: &StepCtx, y: &[f64]) -> [f64; MAX_ROWS] {
+        let buf = self.gather(y);
+        self.terms(ctx, &buf[..self.unknowns.len()]).c_f
+    }
+
+    /// The contact force and moment on the follower at its contact point (inertial), from
+    /// the discrete constraint forces of a converged step, and the beam's section frame at
+    /// the contact point (axis 1 along the beam).
+    pub fn reaction(&self, ctx: &StepCtx, y: &[f64]) -> (V3<f64>, V3<f64>, M3<f64>) {
+        let buf = self.gather(y);
+        let yl = &buf[..self.unknowns.len()];
+        let t = self.terms(ctx, yl);
+        let lam = self.with_map(&t, |map| map.multipliers(ctx, yl, false));
+        let (f, m_node) = node_force(&t.b, &lam[..self.n_rows()], FOLLOWER_COL);
+        let (_, r_f) = self.pose(ctx.state, self.follower, self.follower_slot, Some(yl));
+        let arm = r_f.mul_v(&self.law.at[1].offset);
+        let zeta_f = ctx.state.coords[self.coord] + yl[self.coord_slot];
+        let mut end = ctx.state.clone();
+        self.advance_nodes(&mut end, yl);
+        let (_, frame, _) = self.contact(&end, zeta_f);
+        (f, m_node - arm.cross(&f), frame)
+    }
+
+    /// The window's nodes and the follower moved by the local increments (for evaluating the
+    /// contact at the end of a step).
+    fn advance_nodes(&self, state: &mut State, yl: &[f64]) {
+        let per = self.per();
+        for j in 0..=(self.last_node() - self.first_node()) {
+            let a = self.beam_nodes[self.first_node() + j];
+            let (x, r) = self.pose(state, Side::Node(a), Some(6 * per * j), Some(yl));
+            state.nodes[a].x = x;
+            state.nodes[a].r = r;
+        }
+        if let (Side::Node(a), Some(d)) = (self.follower, self.follower_slot) {
+            let (x, r) = self.pose(state, self.follower, Some(d), Some(yl));
+            state.nodes[a].x = x;
+            state.nodes[a].r = r;
+        }
+    }
+
+    /// The contact point `P(ζ)`, the section frame there (the interpolated directors
+    /// `Σ h^α e_k^α` made orthonormal, axis 1 first) and the path's speed `|P′(ζ)|` (m per unit
+    /// ζ), at a state.
+    pub fn contact(&self, state: &State, zeta: f64) -> (V3<f64>, M3<f64>, f64) {
+        let range = self.path.all();
+        let w = self.path.weights_in(zeta, range);
+        let dw = self.path.tangent_weights(zeta, range);
+        let mut p = V3::zero();
+        let mut dp = V3::zero();
+        let mut d1 = V3::zero();
+        let mut d2 = V3::zero();
+        for (n, h) in w.iter() {
+            let node = &state.nodes[self.beam_nodes[n]];
+            p += node.x.scale_f(h);
+            d1 += node.r.col(0).scale_f(h);
+            d2 += node.r.col(1).scale_f(h);
+        }
+        for (n, h) in dw.iter() {
+            dp += state.nodes[self.beam_nodes[n]].x.scale_f(h);
+        }
+        (p, orthonormal_frame(d1, d2), dp.norm())
+    }
+
+    /// Constraint values at a state.
+    pub fn values_at(&self, state: &State) -> [f64; MAX_ROWS] {
+        let zeta = state.coords[self.coord];
+        let w = self.path.weights_in(zeta, self.path.all());
+        let fol = self.pose::<f64>(state, self.follower, None, None);
+        let mut c = [0.0; MAX_ROWS];
+        for (n, h) in w.iter() {
+            let node = self.pose::<f64>(state, Side::Node(self.beam_nodes[n]), None, None);
+            let mut g = [0.0; MAX_ROWS];
+            self.law.value(&Self::pair_state(node, fol), &mut g);
+            for r in 0..self.n_rows() {
+                c[r] += h * g[r];
+            }
+        }
+        c
+    }
+
+    /// The velocity-level rows `Ċ = Σ h^α B_g(α) V + ζ̇ Σ h′^α g^α` at a state, as terms
+    /// (local row, term).
+    pub fn rate_terms(&self, state: &State, out: &mut Vec<(usize, super::RateTerm)>) {
+        use super::RateTerm;
+        let zeta = state.coords[self.coord];
+        let range = self.path.all();
+        let w = self.path.weights_in(zeta, range);
+        let dw = self.path.tangent_weights(zeta, range);
+        let fol = self.pose::<f64>(state, self.follower, None, None);
+        let n = self.n_rows();
+        let mut dzeta = [0.0; MAX_ROWS];
+        let mut fv = [(V3::zero(), V3::zero()); MAX_ROWS];
+        for (node_k, h) in w.iter() {
+            let a = self.beam_nodes[node_k];
+            let node = self.pose::<f64>(state, Side::Node(a), None, None);
+            let s = Self::pair_state(node, fol);
+            let mut pair = [[0.0; NCOL]; MAX_ROWS];
+            self.law.rate(&s, &mut pair);
+            for (r, f) in fv.iter_mut().enumerate().take(n) {
+                out.push((
+                    r,
+                    RateTerm::Node {
+                        node: a,
+                        v: V3([pair[r][0], pair[r][1], pair[r][2]]).scale_f(h),
+                        omega: V3([pair[r][3], pair[r][4], pair[r][5]]).scale_f(h),
+                    },
+                ));
+                f.0 += V3([pair[r][6], pair[r][7], pair[r][8]]).scale_f(h);
+                f.1 += V3([pair[r][9], pair[r][10], pair[r][11]]).scale_f(h);
+            }
+        }
+        for (node_k, dh) in dw.iter() {
+            let node = self.pose::<f64>(state, Side::Node(self.beam_nodes[node_k]), None, None);
+            let mut g = [0.0; MAX_ROWS];
+            self.law.value(&Self::pair_state(node, fol), &mut g);
+            for r in 0..n {
+                dzeta[r] += dh * g[r];
+            }
+        }
+        for r in 0..n {
+            if let Side::Node(a) = self.follower {
+                out.push((
+                    r,
+                    RateTerm::Node {
+                        node: a,
+                        v: fv[r].0,
+                        omega: fv[r].1,
+                    },
+                ));
+            }
+            out.push((
+                r,
+                RateTerm::Coord {
+                    coord: self.coord,
+                    value: dzeta[r],
+                },
+            ));
+        }
+    }
+}
+
+/// An orthonormal frame whose first axis is along `d1` and second in the plane of `d1, d2`.
+pub fn orthonormal_frame(d1: V3<f64>, d2: V3<f64>) -> M3<f64> {
+    let e1 = d1.scale_f(1.0 / d1.norm());
+    let e2 = d2 - e1.scale_f(d2.dot(&e1));
+    let e2 = e2.scale_f(1.0 / e2.norm());
+    M3::from_cols(e1, e2, e1.cross(&e2))
+}
+
+impl Kernel for SlidingJoint {
+    fn unknowns(&self) -> &[usize] {
+        &self.unknowns
+    }
+
+    fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], res: &mut [T]) {
+        let t = self.terms(ctx, y);
+        let rates = t.rates.as_ref().map(|(a, b)| (a, b));
+        let terms = ConstraintTerms {
+            c_f: &t.c_f[..self.n_rows()],
+            b: &t.b,
+            rates,
+        };
+        self.with_map(&t, |map| add_constraint_equations(ctx, map, &terms, y, res));
+    }
+
+    /// The pattern must hold wherever ζ goes in the window during the step: the union of
+    /// the structures with the step ending in each of its elements.
+    fn structure(&self, ctx: &StepCtx, y: &[f64]) -> Vec<bool> {
+        let mut state = ctx.state.clone();
+        let centre = (self.window.0 + self.window.1) as f64 * 0.5 + 0.5;
+        state.coords[self.coord] = centre;
+        let probe = StepCtx {
+            state: &state,
+            ..*ctx
+        };
+        let mut yl = y.to_vec();
+        let delta = self.layout_coord_delta();
+        let mut mask: Vec<bool> = Vec::new();
+        for e in self.window.0..=self.window.1 {
+            for frac in [0.3, 0.7] {
+                yl[delta] = e as f64 + frac - centre;
+                let m = crate::elements::block_structure(self, &probe, &yl);
+                if mask.is_empty() {
+                    mask = m;
+                } else {
+                    mask.iter_mut().zip(m).for_each(|(a, b)| *a |= b);
+                }
+            }
+        }
+        mask
+    }
+}
+
+impl SlidingJoint {
+    fn layout_coord_delta(&self) -> usize {
+        self.layout.coord_delta(self.coord)
+    }
+}
