@@ -653,3 +653,227 @@ impl SlidingJoint {
         self.layout.coord_delta(self.coord)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::elements::fd_harness::tangent_error;
+    use crate::joints::law_tests::{assert_law, attachments};
+    use crate::model::Scheme;
+    use crate::rotation::exp_map;
+    use crate::state::NodeState;
+
+    const KINDS: [SlidingKind; 3] = [SlidingKind::Point, SlidingKind::Screw, SlidingKind::Clamp];
+
+    #[test]
+    fn contact_laws_have_exact_discrete_gradients() {
+        for kind in KINDS {
+            assert_law(&ContactLaw {
+                kind,
+                at: attachments(),
+            });
+        }
+    }
+
+    /// A wavy, twisted 3-D beam of `ne` elements of order `p` (nodes 0 … ne·p) and a moving,
+    /// turning follower (the last node).
+    fn setup(ne: usize, p: usize) -> State {
+        let nb = ne * p + 1;
+        let mut nodes: Vec<NodeState> = (0..nb)
+            .map(|k| {
+                let s = k as f64 * 0.37;
+                NodeState {
+                    x: V3([
+                        s + 0.1 * (3.0 * s).sin(),
+                        0.4 * (1.7 * s).cos(),
+                        0.05 * s * s,
+                    ]),
+                    r: exp_map(&V3([0.3 * s, 0.2 * (2.0 * s).sin(), -0.1 * s])),
+                    v: V3([0.2 * s, -0.5, 0.1]),
+                    w: V3([1.0, 0.3 * s, -0.2]),
+                }
+            })
+            .collect();
+        nodes.push(NodeState {
+            x: V3([0.9, 0.3, -0.2]),
+            r: exp_map(&V3([0.5, -0.4, 0.2])),
+            v: V3([0.7, 0.1, -0.3]),
+            w: V3([-0.4, 0.8, 0.6]),
+        });
+        State {
+            t: 0.2,
+            nodes,
+            coords: vec![0.0],
+            coord_rates: vec![0.9],
+            lambda: vec![],
+            history: vec![],
+        }
+    }
+
+    fn joint(
+        kind: SlidingKind,
+        ne: usize,
+        p: usize,
+        zeta0: f64,
+        ground: bool,
+        layout: &Layout,
+    ) -> SlidingJoint {
+        let at = attachments();
+        let follower = if ground {
+            Side::Ground {
+                x: V3([0.4, -0.3, 0.2]),
+                r: exp_map(&V3([0.1, 0.2, -0.3])),
+            }
+        } else {
+            Side::Node(ne * p + 1)
+        };
+        SlidingJoint::new(
+            "slider".into(),
+            ContactLaw {
+                kind,
+                at: [
+                    Attachment {
+                        offset: V3::zero(),
+                        triad: M3::identity(),
+                    },
+                    at[1],
+                ],
+            },
+            BeamPath::new(ne, p),
+            (0..=ne * p).collect(),
+            follower,
+            0,
+            0,
+            layout,
+            zeta0,
+        )
+    }
+
+    /// Unknowns with large increments (rotations of tens of degrees) and the given Δζ.
+    fn unknowns(layout: &Layout, dzeta: f64, seed: f64) -> Vec<f64> {
+        let mut y: Vec<f64> = (0..layout.n_unknowns())
+            .map(|i| 0.2 * ((i as f64 + seed) * 1.3).sin())
+            .collect();
+        y[layout.coord_delta(0)] = dzeta;
+        y
+    }
+
+    /// ζ_i in element 2 and steps inside it, across one boundary either way, of zero length
+    /// (the Newton predictor's first iterate), and from a node either way. (A zero step
+    /// exactly on a node sits on the path's kink: no derivative to compare with there.)
+    const STEPS: [(f64, f64); 6] = [
+        (2.4, 0.3),
+        (2.4, 0.8),
+        (2.4, -0.6),
+        (2.4, 0.0),
+        (2.0, 0.3),
+        (2.0, -0.3),
+    ];
+
+    #[test]
+    fn constraint_increment_is_exactly_the_discrete_gradient_times_the_step() {
+        // W = sλ·(C_f − C_i) for any λ: the forces B^Dᵀλ do no work on a constrained step.
+        for p in 1..=3 {
+            for kind in KINDS {
+                for (zi, dz) in STEPS {
+                    let mut state = setup(5, p);
+                    state.coords[0] = zi;
+                    let n_rows = ContactLaw {
+                        kind,
+                        at: attachments(),
+                    }
+                    .n_rows();
+                    let layout = Layout::new(Scheme::Ep, state.nodes.len(), 1, n_rows);
+                    let j = joint(kind, 5, p, zi, false, &layout);
+                    let y = unknowns(&layout, dz, 3.0);
+                    let ctx = StepCtx {
+                        layout,
+                        h: 0.01,
+                        t_i: 0.2,
+                        t_f: 0.21,
+                        s: 1.0,
+                        state: &state,
+                        gravity: V3::zero(),
+                        statics: None,
+                    };
+                    let yl: Vec<f64> = j.unknowns().iter().map(|&g| y[g]).collect();
+                    let t = j.terms(&ctx, &yl);
+                    let c_i = j.values_at(&state);
+                    let mut bd = [0.0; MAX_ROWS];
+                    j.with_map(&t, |map| gradient_times_increment(map, &t.b, &yl, &mut bd));
+                    for r in 0..n_rows {
+                        let dc = t.c_f[r] - c_i[r];
+                        // An algebraic identity: round-off of O(1) data.
+                        assert!(
+                            (bd[r] - dc).abs() < 1e-13,
+                            "p={p} {kind:?} ζ {zi}+{dz} row {r}: B^DΔ = {} vs ΔC = {dc}",
+                            bd[r]
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn tangents_match_finite_differences_inside_and_across_elements() {
+        for (scheme, statics) in [
+            (Scheme::Ep, None),
+            (Scheme::Ed, None),
+            (Scheme::Ep, Some(0.6)),
+        ] {
+            for p in 1..=3 {
+                for kind in KINDS {
+                    for ground in [false, true] {
+                        for (zi, dz) in STEPS {
+                            let mut state = setup(5, p);
+                            state.coords[0] = zi;
+                            let n_rows = ContactLaw {
+                                kind,
+                                at: attachments(),
+                            }
+                            .n_rows();
+                            let layout = Layout::new(scheme, state.nodes.len(), 1, n_rows);
+                            let j = joint(kind, 5, p, zi, ground, &layout);
+                            let y = unknowns(&layout, dz, 1.0);
+                            let ctx = StepCtx {
+                                layout,
+                                h: 0.01,
+                                t_i: 0.2,
+                                t_f: 0.21,
+                                s: 30.0,
+                                state: &state,
+                                gravity: V3::zero(),
+                                statics,
+                            };
+                            let e = tangent_error(&j, &ctx, &y);
+                            // FD truncation and round-off relative to |J|, as for every kernel.
+                            assert!(
+                                e < 1e-7,
+                                "{scheme:?} statics={statics:?} p={p} {kind:?} ground={ground} ζ {zi}+{dz}: {e:e}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn window_follows_the_contact_point_and_limits_the_step() {
+        let state = setup(6, 3);
+        let layout = Layout::new(Scheme::Ed, state.nodes.len(), 1, 4);
+        let mut j = joint(SlidingKind::Screw, 6, 3, 0.2, false, &layout);
+        assert_eq!(j.window(), (0, 1));
+        assert_eq!(j.zeta_limits(), (f64::NEG_INFINITY, 2.0));
+        assert!(!j.place_window(0.9));
+        assert!(j.place_window(3.5));
+        assert_eq!(j.window(), (2, 4));
+        assert_eq!(j.zeta_limits(), (2.0, 5.0));
+        // Ten beam nodes and the follower, 12 unknowns each, ζ and its jump, 2 × 4 multipliers.
+        assert_eq!(j.unknowns().len(), 11 * 12 + 2 + 8);
+        assert!(j.place_window(6.0));
+        assert_eq!(j.window(), (4, 5));
+        assert_eq!(j.zeta_limits(), (4.0, f64::INFINITY));
+    }
+}
