@@ -212,6 +212,7 @@ impl PySimulation {
         d.set_item("max_constraint_work", s.max_constraint_work)?;
         d.set_item("max_energy_defect", s.max_energy_defect)?;
         d.set_item("pattern_misses", s.pattern_misses)?;
+        d.set_item("pattern_rebuilds", s.pattern_rebuilds)?;
         d.set_item("unknowns", self.sim.system.layout.n_unknowns())?;
         Ok(d)
     }

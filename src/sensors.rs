@@ -26,6 +26,11 @@ enum Source {
     BeamEnergy(usize),
     /// Largest |C| of a joint kernel's rows.
     Violation(usize),
+    /// A sliding joint (kernel index): η, η̇, arc length and the contact point.
+    Contact(usize),
+    /// A sliding joint's drive (drive index, kernel index): force along the beam, generalized
+    /// force on η, work.
+    SlidingDrive(usize, usize),
 }
 
 #[derive(Clone, Debug)]
@@ -83,6 +88,15 @@ impl Channels {
                     }
                 }
                 Source::Drive(d) => report.drive_forces[*d],
+                Source::SlidingDrive(d, j) => {
+                    let (speed, dzeta_deta) = report.path_rates[*j];
+                    let f_zeta = report.drive_forces[*d];
+                    if *k == 0 {
+                        f_zeta / speed
+                    } else {
+                        f_zeta * dzeta_deta
+                    }
+                }
                 _ => unreachable!("only multiplier channels are step channels"),
             });
         }
@@ -99,7 +113,8 @@ impl Channels {
             |c: &mut Channels, sensor: &str, comps: &[&str], unit: &[&'static str], src: Source| {
                 for (k, comp) in comps.iter().enumerate() {
                     let step_quantity = matches!(src, Source::Reaction(_))
-                        || (matches!(src, Source::Drive(_)) && k == 0);
+                        || (matches!(src, Source::Drive(_)) && k == 0)
+                        || (matches!(src, Source::SlidingDrive(..)) && k < 2);
                     if step_quantity {
                         c.step_channels.push(c.names.len());
                     }
@@ -143,6 +158,19 @@ impl Channels {
                     &["m/s", "m/s", "m/s", "rad/s"],
                     Source::Velocity(node(n)),
                 ),
+                Sensor::JointCoordinate { joint, .. }
+                    if sys.joints[sys.joint(joint).expect("validated").kernel]
+                        .as_sliding()
+                        .is_some() =>
+                {
+                    add(
+                        &mut c,
+                        name,
+                        &["eta", "eta_rate", "s", "x", "y", "z"],
+                        &["1", "1/s", "m", "m", "m", "m"],
+                        Source::Contact(sys.joint(joint).expect("validated").kernel),
+                    )
+                }
                 Sensor::JointCoordinate { joint, .. } => {
                     for co in &sys.joint(joint).expect("validated").coords {
                         let (names, units): ([String; 2], [&'static str; 2]) = if co.name == "phi" {
@@ -190,6 +218,17 @@ impl Channels {
                         .and_then(|j| j.coords.iter().find(|c| c.name == spec.name))
                         .and_then(|c| c.drive)
                         .expect("validated");
+                    let kernel = sys.joint(joint).expect("validated").kernel;
+                    if sys.joints[kernel].as_sliding().is_some() {
+                        add(
+                            &mut c,
+                            name,
+                            &["force", "force_eta", "work"],
+                            &["N", "N*m", "J"],
+                            Source::SlidingDrive(d, kernel),
+                        );
+                        continue;
+                    }
                     let (force, unit) = if spec.is_rotation() {
                         ("torque", "N*m")
                     } else {
@@ -302,6 +341,26 @@ impl Channels {
                 }
                 // Step quantities are filled in by `step_values` and interpolation.
                 Source::Reaction(_) => f64::NAN,
+                Source::Contact(j) => {
+                    let sl = sys.joints[*j].as_sliding().expect("a sliding joint");
+                    let z = state.coords[sl.coord];
+                    match *k {
+                        0 => sl.arc.eta(z),
+                        1 => state.coord_rates[sl.coord] * sl.arc.deta_dzeta(z),
+                        2 => {
+                            let info = sys.beam_info.iter().find(|b| b.nodes == sl.beam_nodes);
+                            sl.arc.eta(z) * info.map_or(f64::NAN, |b| b.length)
+                        }
+                        _ => sl.contact(state, z).0 .0[k - 3],
+                    }
+                }
+                Source::SlidingDrive(d, _) => {
+                    if *k < 2 {
+                        f64::NAN
+                    } else {
+                        totals.per_drive_work.get(*d).copied().unwrap_or(0.0)
+                    }
+                }
                 Source::Drive(d) => {
                     if *k == 0 {
                         f64::NAN

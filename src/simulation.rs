@@ -3,7 +3,7 @@
 
 use crate::elements::StepCtx;
 use crate::integrator::{Integrator, StepFailure, StepReport};
-use crate::joints::RateTerm;
+use crate::joints::{Joint, RateTerm};
 use crate::model::{Analysis, Model, ModelErrors, Scheme, SimulationSettings};
 use crate::sensors::{Channels, Totals};
 use crate::state::State;
@@ -27,6 +27,8 @@ pub struct RunStats {
     pub max_energy_defect: f64,
     /// Assemblies whose tangent had an entry outside the detected sparsity pattern.
     pub pattern_misses: usize,
+    /// Newton-matrix patterns rebuilt because a sliding contact point changed element.
+    pub pattern_rebuilds: usize,
 }
 
 #[derive(Debug)]
@@ -181,6 +183,7 @@ impl Simulation {
     /// gradients).
     pub fn linearize(&mut self) -> (usize, Vec<f64>, Vec<f64>, Vec<String>) {
         assert!(self.is_static(), "linearization needs a static analysis");
+        self.follow_contacts();
         let sys = &self.system;
         let lay = sys.layout;
         let n = lay.n_unknowns();
@@ -221,7 +224,23 @@ impl Simulation {
         self.load_factor
     }
 
+    /// Moves each sliding joint's window of unknowns to where its contact point is; a moved
+    /// window changes the Newton matrix's pattern.
+    fn follow_contacts(&mut self) {
+        let mut moved = false;
+        for j in &mut self.system.joints {
+            if let Joint::Sliding(s) = j {
+                moved |= s.place_window(self.state.coords[s.coord]);
+            }
+        }
+        if moved {
+            self.integrator
+                .rebuild_pattern(&self.system, self.settings.dt);
+        }
+    }
+
     fn advance_load(&mut self, target: f64, depth: u32) -> Result<(), StepFailure> {
+        self.follow_contacts();
         match self
             .integrator
             .static_step(&self.system, &self.state, target)
@@ -339,6 +358,7 @@ impl Simulation {
 
     /// One step of `h`, retried as two halves (recursively) if Newton fails.
     fn advance_interval(&mut self, h: f64, depth: u32) -> Result<(), StepFailure> {
+        self.follow_contacts();
         let e_t_i = self.state.t;
         let e_i = self.energy();
         match self.integrator.step(&self.system, &self.state, h) {
@@ -415,6 +435,7 @@ impl Simulation {
         self.stats.factorizations = self.integrator.matrix.numeric_factorizations;
         self.stats.orderings = self.integrator.matrix.orderings;
         self.stats.pattern_misses = self.integrator.pattern_misses;
+        self.stats.pattern_rebuilds = self.integrator.pattern_rebuilds;
     }
 
     pub fn done(&self) -> bool {
@@ -570,7 +591,7 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
         let row = lay.mult(d.row);
         add(&mut m, blk, row, lay.coord_delta(d.coord), 1.0);
         add(&mut m, blk, lay.coord_delta(d.coord), row, 1.0);
-        rhs[row] = d.function.rate(state.t);
+        rhs[row] = d.target_rate(state.t);
     }
     if m.factor().is_err() {
         return change;

@@ -9,13 +9,14 @@ time integration (Bauchau & Bottasso 2001).
 
 from ._core import FlexdynError, ModelError, SolverError
 from ._core import schema as _schema
-from .builder import Model, load
+from .builder import Model, drive, load
 from .modes import modes
 from .results import open_results, simulate, solve_static
 
 __all__ = [
     "FlexdynError",
     "Model",
+    "drive",
     "ModelError",
     "SolverError",
     "load",

@@ -30,6 +30,28 @@ def _drop_none(d: dict) -> dict:
     return {k: v for k, v in d.items() if v is not None}
 
 
+class Drive:
+    """A prescribed motion of a joint coordinate (see `drive`)."""
+
+    def __init__(self, function):
+        if isinstance(function, Drive):
+            function = function.function
+        self.function = float(function) if isinstance(function, (int, float)) else function
+
+    def __repr__(self) -> str:
+        return f"drive({self.function!r})"
+
+
+def drive(function) -> Drive:
+    """A prescribed motion: a number, an expression of `t` ("0.5 - 0.25*cos(2*pi*t)"), or a
+    table {"t": [...], "value": [...]}. Pass it where a coordinate is expected, e.g.
+    `sliding_joint(..., eta=drive("0.5 - 0.25*cos(2*pi*t)"))`."""
+    return Drive(function)
+
+
+_SLIDING_TYPES = {"point": "sliding", "screw": "sliding_screw", "clamp": "sliding_clamp"}
+
+
 class Model:
     """A flexdyn model, built item by item (every method returns the model, so calls chain)."""
 
@@ -275,6 +297,31 @@ class Model:
 
     def clamp(self, name, node1, node2):
         return self._joint("clamp", name, node1, node2)
+
+    def sliding_joint(self, name, beam, follower, eta=None, spring=None, kind="point"):
+        """The follower node stays in contact with `beam` at a moving point η = s/L.
+
+        - `eta`: the initial η (a number; default: the beam point closest to the follower),
+          or `drive(...)` to prescribe η(t) — its multiplier is the driving force along the
+          beam. Without a drive the contact point slides freely (no friction).
+        - `spring`: {"stiffness": N/m, "damping": N·s/m, "rest": η} along the beam.
+        - `kind`: "point" (sliding joint: the point stays on the beam, the follower turns
+          freely), "screw" (sliding screw joint: the follower also turns with the beam's section
+          about its axis — pre-twist and elastic twist), or "clamp" (a sleeve: the follower
+          keeps its orientation relative to the section).
+        - `follower` may be "ground": a fixed guide the beam slides through.
+        """
+        if kind not in _SLIDING_TYPES:
+            raise ValueError(f"sliding joint `{name}`: kind must be one of {sorted(_SLIDING_TYPES)} (got {kind!r})")
+        fields = {"type": _SLIDING_TYPES[kind], "name": name, "beam": beam, "follower": follower}
+        if isinstance(eta, Drive):
+            fields["drive"] = eta.function
+        elif eta is not None:
+            fields["eta"] = float(eta)
+        if spring is not None:
+            fields["spring"] = dict(spring)
+        self.data["joints"].append(fields)
+        return self
 
     def force(self, name, node, value, scale=None, follower=False):
         """Point force, N, times an optional function of time: dead (inertial frame) or, with

@@ -239,8 +239,21 @@ impl ArcMap {
         ArcMap { ends }
     }
 
+    /// Equal elements: η = ζ/N_e.
+    pub fn uniform(elements: usize) -> Self {
+        ArcMap {
+            ends: (0..=elements).map(|e| e as f64 / elements as f64).collect(),
+        }
+    }
+
     pub fn elements(&self) -> usize {
         self.ends.len() - 1
+    }
+
+    /// dη/dζ at ζ.
+    pub fn deta_dzeta(&self, zeta: f64) -> f64 {
+        let e = (zeta.max(0.0).floor() as usize).min(self.elements() - 1);
+        self.ends[e + 1] - self.ends[e]
     }
 
     fn element_of_eta(&self, eta: f64) -> usize {

@@ -7,6 +7,7 @@
 //! A drive is the rheonomic constraint `q − f(t) = 0`; its multiplier is the driving force.
 
 use super::{Kernel, StepCtx};
+use crate::beam::path::ArcMap;
 use crate::scalar::Real;
 use crate::system::layout::Layout;
 use crate::time_function::TimeFunction;
@@ -208,12 +209,14 @@ impl Kernel for CoordinateSpring {
     }
 }
 
-/// Prescribed coordinate `q = f(t)`, one constraint row.
+/// Prescribed coordinate `q = f(t)`, one constraint row. For a sliding joint the user
+/// prescribes η(t) and the coordinate is the element coordinate ζ = ζ(η) (`map`).
 #[derive(Clone, Debug)]
 pub struct CoordinateDrive {
     pub coord: usize,
     pub row: usize,
     pub function: TimeFunction,
+    pub map: Option<ArcMap>,
     unknowns: Vec<usize>,
 }
 
@@ -233,19 +236,34 @@ impl CoordinateDrive {
             coord,
             row,
             function,
+            map: None,
             unknowns,
         }
+    }
+
+    /// The prescribed value of the coordinate at `t`.
+    pub fn target(&self, t: f64) -> f64 {
+        let v = self.function.value(t);
+        self.map.as_ref().map_or(v, |m| m.zeta(v))
+    }
+
+    /// Its rate (chain rule through the map).
+    pub fn target_rate(&self, t: f64) -> f64 {
+        let r = self.function.rate(t);
+        self.map
+            .as_ref()
+            .map_or(r, |m| r * m.dzeta_deta(self.function.value(t)))
     }
 
     /// Work done by the drive over a converged step: from the energy identity, the terms the
     /// rheonomic constraint leaves behind (EP: `−λ (f_f − f_i)`; ED adds the velocity-level
     /// term `h/12 λ_d (ḟ_i − ḟ_f)`).
     pub fn step_work(&self, ctx: &StepCtx, y: &[f64]) -> f64 {
-        let (ff, fi) = (self.function.value(ctx.t_f), self.function.value(ctx.t_i));
+        let (ff, fi) = (self.target(ctx.t_f), self.target(ctx.t_i));
         if ctx.ed() {
             let lf = ctx.s * y[self.unknowns[2]];
             let ld = ctx.s * y[self.unknowns[3]];
-            let (ri, rf) = (self.function.rate(ctx.t_i), self.function.rate(ctx.t_f));
+            let (ri, rf) = (self.target_rate(ctx.t_i), self.target_rate(ctx.t_f));
             -lf * (ff - fi) + ctx.h / 12.0 * ld * (ri - rf)
         } else {
             -ctx.s * y[self.unknowns[1]] * (ff - fi)
@@ -277,13 +295,13 @@ impl Kernel for CoordinateDrive {
             // B = 1: P_f = −λ_f, P_j = λ_d; rows hold −P_f and −P_j/6.
             r[0] += mf * s;
             r[1] -= md * (s / 6.0);
-            r[2] += (dq + (qi - self.function.value(ctx.t_f))) * s;
-            let ci = rate_j - self.function.rate(ctx.t_i);
-            let cf = rate_f - self.function.rate(ctx.t_f);
+            r[2] += (dq + (qi - self.target(ctx.t_f))) * s;
+            let ci = rate_j - self.target_rate(ctx.t_i);
+            let cf = rate_f - self.target_rate(ctx.t_f);
             r[3] += (ci - cf) * (s * ctx.h);
         } else {
             r[0] += y[1] * s;
-            r[1] += (dq + (qi - self.function.value(ctx.t_f))) * s;
+            r[1] += (dq + (qi - self.target(ctx.t_f))) * s;
         }
     }
 }

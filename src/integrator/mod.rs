@@ -32,6 +32,10 @@ pub struct StepReport {
     /// Per joint kernel: reaction force and moment on node2 at the joint point (inertial), and
     /// the joint frame on node2's side.
     pub reactions: Vec<(V3<f64>, V3<f64>, crate::vec3::M3<f64>)>,
+    /// Per joint kernel (sliding joints; 0 for others): the path's speed `|P′(ζ_f)|` in m
+    /// per unit ζ, and `dζ/dη` there, to turn the driving force on ζ into N along the beam
+    /// and per unit η.
+    pub path_rates: Vec<(f64, f64)>,
 }
 
 #[derive(Clone, Debug)]
@@ -78,10 +82,33 @@ pub struct Integrator {
     pub total_iterations: usize,
     /// Assemblies in which a kernel wrote outside the detected pattern (should stay 0).
     pub pattern_misses: usize,
+    /// Times the pattern was rebuilt (sliding contact points entering new elements).
+    pub pattern_rebuilds: usize,
 }
 
 impl Integrator {
     pub fn new(sys: &System, settings: &SimulationSettings) -> Self {
+        let mut integ = Self::with_pattern(sys, settings.dt);
+        integ.tol = settings.newton_tol;
+        integ.max_iter = settings.max_newton_iterations as usize;
+        integ
+    }
+
+    /// Rebuilds the Newton matrix's pattern after a kernel's unknowns changed (a sliding
+    /// joint's window moved to the next element); the counters carry on.
+    pub fn rebuild_pattern(&mut self, sys: &System, h: f64) {
+        let mut fresh = Self::with_pattern(sys, h);
+        fresh.tol = self.tol;
+        fresh.max_iter = self.max_iter;
+        fresh.total_iterations = self.total_iterations;
+        fresh.pattern_misses = self.pattern_misses;
+        fresh.pattern_rebuilds = self.pattern_rebuilds + 1;
+        fresh.matrix.numeric_factorizations += self.matrix.numeric_factorizations;
+        fresh.matrix.orderings += self.matrix.orderings;
+        *self = fresh;
+    }
+
+    fn with_pattern(sys: &System, h: f64) -> Self {
         use crate::elements::Kernel;
         let mut blocks: Vec<&[usize]> = Vec::new();
         blocks.extend(sys.inertias.iter().map(|k| k.unknowns()));
@@ -93,7 +120,7 @@ impl Integrator {
         blocks.extend(sys.line_loads.iter().map(|k| k.unknowns()));
         let n = sys.layout.n_unknowns();
         // Only the structurally nonzero entries enter the pattern: less fill, faster LU.
-        let masks = Self::block_masks(sys, settings.dt);
+        let masks = Self::block_masks(sys, h);
         let (matrix, mut pos) = NewtonMatrix::from_blocks(n, &blocks, Some(&masks));
         let line_load_pos = pos.split_off(pos.len() - sys.line_loads.len());
         let load_pos = pos.split_off(pos.len() - sys.loads.len());
@@ -112,10 +139,11 @@ impl Integrator {
             line_load_pos,
             y: vec![0.0; n],
             res: vec![0.0; n],
-            tol: settings.newton_tol,
-            max_iter: settings.max_newton_iterations as usize,
+            tol: 1e-10,
+            max_iter: 20,
             total_iterations: 0,
             pattern_misses: 0,
+            pattern_rebuilds: 0,
         }
     }
 
@@ -403,6 +431,7 @@ impl Integrator {
         };
         let mut report = StepReport::default();
         let mut f_ref = 0.0;
+        let mut clamped: Option<&str> = None;
         for it in 0..=self.max_iter {
             self.assemble(sys, ctx, true);
             if ctx.is_static() {
@@ -431,8 +460,9 @@ impl Integrator {
                 break;
             }
             if it == self.max_iter {
+                let window = clamped.map_or(String::new(), |name| format!("; the contact point of sliding joint `{name}` was held at the edge of its window (it would move more than one element in this step)"));
                 return Err(fail(format!(
-                    "Newton did not converge in {} iterations; largest residual {:.3e} (scale {:.3e}) at {}",
+                    "Newton did not converge in {} iterations; largest residual {:.3e} (scale {:.3e}) at {}{window}",
                     self.max_iter,
                     rn,
                     f_ref,
@@ -440,6 +470,7 @@ impl Integrator {
                 )));
             }
             self.solve_update().map_err(fail)?;
+            clamped = self.keep_contacts_in_windows(sys, ctx);
             if let Some(bad) = self.y.iter().position(|v| !v.is_finite()) {
                 // Singular whatever the step: an unconstrained massless motion, or a mechanism
                 // at a lock-up. Say so rather than halving the step in vain.
@@ -472,7 +503,54 @@ impl Integrator {
             report.iterations += 1;
         }
         self.total_iterations += report.iterations;
+        self.check_contacts_on_beams(sys, ctx)?;
         Ok(report)
+    }
+
+    /// Newton's iterate of a sliding joint's ζ stays within the window its unknowns cover;
+    /// returns the name of a joint held at the window's edge.
+    fn keep_contacts_in_windows<'s>(&mut self, sys: &'s System, ctx: &StepCtx) -> Option<&'s str> {
+        let mut held = None;
+        for sl in sys.joints.iter().filter_map(|j| j.as_sliding()) {
+            let d = sys.layout.coord_delta(sl.coord);
+            let zi = ctx.state.coords[sl.coord];
+            let (lo, hi) = sl.zeta_limits();
+            let z = zi + self.y[d];
+            if z < lo || z > hi {
+                self.y[d] = z.clamp(lo, hi) - zi;
+                held = Some(sl.name.as_str());
+            }
+        }
+        held
+    }
+
+    /// A converged step whose contact point left its beam cannot continue: the beam has no
+    /// material there. Stop with a message (no smaller step helps).
+    fn check_contacts_on_beams(&self, sys: &System, ctx: &StepCtx) -> Result<(), StepFailure> {
+        for sl in sys.joints.iter().filter_map(|j| j.as_sliding()) {
+            let z = ctx.state.coords[sl.coord] + self.y[sys.layout.coord_delta(sl.coord)];
+            let n = sl.path.elements as f64;
+            if !(-1e-9..=n + 1e-9).contains(&z) {
+                let beam = sys
+                    .beam_info
+                    .iter()
+                    .find(|b| b.nodes == sl.beam_nodes)
+                    .map_or("its beam", |b| b.name.as_str());
+                let end = if z < 0.0 {
+                    "first end (η = 0)"
+                } else {
+                    "second end (η = 1)"
+                };
+                return Err(StepFailure {
+                    t: ctx.t_i,
+                    h: ctx.h,
+                    reason: format!("the contact point of sliding joint `{}` slid off the {end} of beam `{beam}`: nothing in the model stops it there; prescribe η with a drive, hold it with a spring, or lengthen the beam", sl.name),
+                    retry: false,
+                    load_factor: ctx.statics,
+                });
+            }
+        }
+        Ok(())
     }
 
     /// Element history at the end of the converged step.
@@ -589,6 +667,18 @@ impl Integrator {
             lambda,
             history: self.history_f(sys, ctx),
         };
+        report.path_rates = sys
+            .joints
+            .iter()
+            .map(|j| match j.as_sliding() {
+                Some(sl) => {
+                    let z = state.coords[sl.coord];
+                    let (_, _, speed) = sl.contact(&state, z);
+                    (speed, 1.0 / sl.arc.deta_dzeta(z))
+                }
+                None => (0.0, 0.0),
+            })
+            .collect();
         (state, report)
     }
 }

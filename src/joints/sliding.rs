@@ -26,7 +26,7 @@
 use super::equations::*;
 use super::kinematics::*;
 use super::{Attachment, ConstraintLaw, JointState, Rows, Side, MAX_COORDS, MAX_ROWS, NCOL};
-use crate::beam::path::{BeamPath, NodeWeights};
+use crate::beam::path::{ArcMap, BeamPath, NodeWeights};
 use crate::beam::shape::MAX_NODES;
 use crate::elements::{v3, Kernel, StepCtx};
 use crate::rotation::cayley;
@@ -115,6 +115,8 @@ pub struct SlidingJoint {
     /// Global index of ζ among the coordinates.
     pub coord: usize,
     pub row0: usize,
+    /// The user's η = s/L against ζ (for outputs).
+    pub arc: ArcMap,
     /// First and last element the unknowns cover.
     window: (usize, usize),
     layout: Layout,
@@ -149,6 +151,7 @@ impl SlidingJoint {
         zeta0: f64,
     ) -> Self {
         assert_eq!(beam_nodes.len(), path.elements * path.order + 1);
+        let elements = path.elements;
         let mut j = SlidingJoint {
             name,
             law,
@@ -157,6 +160,7 @@ impl SlidingJoint {
             follower,
             coord,
             row0,
+            arc: ArcMap::uniform(elements),
             window: (usize::MAX, 0),
             layout: *layout,
             unknowns: vec![],

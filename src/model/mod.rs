@@ -326,6 +326,38 @@ pub enum Joint {
     Cylindrical(CylindricalJoint),
     /// A cylindrical joint with Δ = pitch·φ (eq. 24).
     Screw(ScrewJoint),
+    /// The follower's point stays on a flexible beam at a moving point η (section 5).
+    Sliding(SlidingJoint),
+    /// A sliding joint whose follower also turns with the beam's section about the beam's
+    /// axis, following its pre-twist and elastic twist (section 6).
+    SlidingScrew(SlidingJoint),
+    /// A sliding joint whose follower keeps its orientation relative to the beam's section
+    /// (a sleeve that can neither tilt nor turn on the beam).
+    SlidingClamp(SlidingJoint),
+}
+
+/// A contact point that moves along a beam. η = s/L is the fraction of the beam's reference
+/// length from its first end; the follower's contact point is the beam point at the initial η
+/// (the follower's node may be offset from it: it is carried rigidly).
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct SlidingJoint {
+    pub name: String,
+    /// The beam the contact point moves along.
+    pub beam: String,
+    /// The node kept on the beam, or `ground` (a fixed guide the beam slides through).
+    pub follower: String,
+    /// Initial contact point η ∈ [0, 1]. Default: the drive's value at t = 0, else the beam
+    /// point closest to the follower's node.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub eta: Option<f64>,
+    /// Prescribed η(t) ∈ [0, 1]. Its multiplier is the driving force along the beam.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drive: Option<TimeFunctionSpec>,
+    /// Spring and damper along the beam: stiffness N/m, damping N·s/m, `rest` as an η (a
+    /// `table` gives the force in N against η). Needs a uniformly meshed beam.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spring: Option<SpringDamper>,
 }
 
 #[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
@@ -428,7 +460,7 @@ impl JointFrame {
 /// model fields they came from.
 #[derive(Clone, Copy, Debug)]
 pub struct CoordinateSpec<'a> {
-    /// `delta` or `phi`.
+    /// `delta`, `phi`, or `eta` (a sliding joint's contact point).
     pub name: &'static str,
     pub drive: Option<&'a TimeFunctionSpec>,
     pub spring: Option<&'a SpringDamper>,
@@ -516,8 +548,17 @@ impl Joint {
             Joint::Prismatic(j) => &j.name,
             Joint::Cylindrical(j) => &j.name,
             Joint::Screw(j) => &j.name,
+            Joint::Sliding(j) | Joint::SlidingScrew(j) | Joint::SlidingClamp(j) => &j.name,
         }
     }
+    /// The sliding joint's data, for the three sliding types.
+    pub fn sliding(&self) -> Option<&SlidingJoint> {
+        match self {
+            Joint::Sliding(j) | Joint::SlidingScrew(j) | Joint::SlidingClamp(j) => Some(j),
+            _ => None,
+        }
+    }
+    /// The two nodes a joint connects; for a sliding joint, the beam's name and the follower.
     pub fn nodes(&self) -> (&str, &str) {
         match self {
             Joint::Spherical(j) => (&j.node1, &j.node2),
@@ -527,6 +568,9 @@ impl Joint {
             Joint::Prismatic(j) => (&j.node1, &j.node2),
             Joint::Cylindrical(j) => (&j.node1, &j.node2),
             Joint::Screw(j) => (&j.node1, &j.node2),
+            Joint::Sliding(j) | Joint::SlidingScrew(j) | Joint::SlidingClamp(j) => {
+                (&j.beam, &j.follower)
+            }
         }
     }
     pub fn kind(&self) -> &'static str {
@@ -538,6 +582,9 @@ impl Joint {
             Joint::Prismatic(_) => "prismatic",
             Joint::Cylindrical(_) => "cylindrical",
             Joint::Screw(_) => "screw",
+            Joint::Sliding(_) => "sliding",
+            Joint::SlidingScrew(_) => "sliding_screw",
+            Joint::SlidingClamp(_) => "sliding_clamp",
         }
     }
     /// The frame its geometry is given in.
@@ -546,7 +593,10 @@ impl Joint {
             Joint::Spherical(j) => j.frame,
             Joint::Revolute(j) => j.frame,
             Joint::Universal(j) => j.frame,
-            Joint::Clamp(_) => JointFrame::Inertial,
+            Joint::Clamp(_)
+            | Joint::Sliding(_)
+            | Joint::SlidingScrew(_)
+            | Joint::SlidingClamp(_) => JointFrame::Inertial,
             Joint::Prismatic(j) => j.frame,
             Joint::Cylindrical(j) => j.frame,
             Joint::Screw(j) => j.frame,
@@ -558,7 +608,10 @@ impl Joint {
             Joint::Spherical(j) => j.position,
             Joint::Revolute(j) => j.position,
             Joint::Universal(j) => j.position,
-            Joint::Clamp(_) => None,
+            Joint::Clamp(_)
+            | Joint::Sliding(_)
+            | Joint::SlidingScrew(_)
+            | Joint::SlidingClamp(_) => None,
             Joint::Prismatic(j) => j.position,
             Joint::Cylindrical(j) => j.position,
             Joint::Screw(j) => j.position,
@@ -616,6 +669,9 @@ impl Joint {
                     "spring_phi",
                 ),
             ],
+            Joint::Sliding(j) | Joint::SlidingScrew(j) | Joint::SlidingClamp(j) => {
+                vec![c("eta", &j.drive, &j.spring, "drive", "spring")]
+            }
             _ => vec![],
         }
     }

@@ -105,6 +105,49 @@ impl Checker {
 }
 
 impl Model {
+    /// A sliding joint's beam exists, its η stays on it, and a free contact point can start
+    /// anywhere on it.
+    fn check_sliding(&self, c: &mut Checker, p: &str, sl: &super::SlidingJoint) {
+        let who = format!("sliding joint `{}`", sl.name);
+        let Some(beam) = self.beams.iter().find(|b| b.name == sl.beam) else {
+            c.err(
+                format!("{p}.beam"),
+                format!(
+                    "{who} refers to beam `{}`, which is not defined in `beams`",
+                    sl.beam
+                ),
+            );
+            return;
+        };
+        if [&beam.start_node, &beam.end_node]
+            .iter()
+            .any(|n| n.as_deref() == Some(sl.follower.as_str()))
+        {
+            c.err(format!("{p}.follower"), format!("{who}: the follower `{}` is a node of beam `{}` itself; a follower must belong to another body", sl.follower, sl.beam));
+        }
+        if let Some(eta) = sl.eta {
+            if !(0.0..=1.0).contains(&eta) {
+                c.err(
+                    format!("{p}.eta"),
+                    format!("{who}: η must lie on the beam, in [0, 1] (got {eta})"),
+                );
+            }
+            if sl.drive.is_some() {
+                c.err(
+                    format!("{p}.eta"),
+                    format!(
+                        "{who}: the drive sets the initial η (its value at t = 0); remove `eta`"
+                    ),
+                );
+            }
+        }
+        if let Some(Ok(f)) = sl.drive.as_ref().map(TimeFunction::new) {
+            if let Some((t, eta)) = drive_leaves_beam(&f, self.simulation.t_end) {
+                c.err(format!("{p}.drive"), format!("{who}: the prescribed η leaves the beam at t = {t:.6} s (η = {eta:.6}); η must stay in [0, 1] over the whole run"));
+            }
+        }
+    }
+
     /// Checks references, physical admissibility and settings; returns every problem found.
     pub fn validate(&self) -> Result<(), ModelErrors> {
         let mut c = Checker { errors: Vec::new() };
@@ -395,9 +438,14 @@ impl Model {
         for (i, j) in self.joints.iter().enumerate() {
             let p = format!("joints[{i}]");
             let (n1, n2) = j.nodes();
-            node_ref(&mut c, format!("{p}.node1"), n1, true);
-            node_ref(&mut c, format!("{p}.node2"), n2, true);
-            if n1 == n2 {
+            if let Some(sl) = j.sliding() {
+                self.check_sliding(&mut c, &p, sl);
+                node_ref(&mut c, format!("{p}.follower"), &sl.follower, true);
+            } else {
+                node_ref(&mut c, format!("{p}.node1"), n1, true);
+                node_ref(&mut c, format!("{p}.node2"), n2, true);
+            }
+            if j.sliding().is_none() && n1 == n2 {
                 c.err(
                     format!("{p}.node2"),
                     format!(
@@ -681,4 +729,15 @@ pub fn driven_coordinate<'a>(
             )),
         },
     }
+}
+
+/// The first time in [0, t_end] at which a prescribed η leaves [0, 1], with its value
+/// (sampled finely enough for any smooth motion of a run).
+pub fn drive_leaves_beam(f: &TimeFunction, t_end: f64) -> Option<(f64, f64)> {
+    let samples = 20_000;
+    (0..=samples).find_map(|k| {
+        let t = t_end * k as f64 / samples as f64;
+        let eta = f.value(t);
+        (!(-1e-12..=1.0 + 1e-12).contains(&eta)).then_some((t, eta))
+    })
 }

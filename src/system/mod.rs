@@ -4,13 +4,16 @@
 mod beam_mesh;
 pub mod layout;
 pub mod redundancy;
+mod sliding;
 pub mod sparse;
 
 use crate::beam::element::BeamElement;
 use crate::beam::line_load::FollowerLineLoad;
+use crate::beam::path::{ArcMap, BeamPath};
 use crate::elements::coordinate::{CoordinateDrive, CoordinateSpring};
 use crate::elements::inertia::NodeInertia;
 use crate::elements::loads::{LoadKind, PointLoad};
+use crate::joints::sliding::{ContactLaw, SlidingJoint, SlidingKind};
 use crate::joints::{
     clamp::Clamp, cylindrical::Cylindrical, prismatic::Prismatic, revolute::Revolute, screw::Screw,
     spherical::Spherical, universal::Universal,
@@ -36,6 +39,9 @@ pub struct BeamInfo {
     pub spans: Vec<(f64, f64)>,
     /// The beam's own lumped inertia.
     pub inertia: Vec<BeamNodeInertia>,
+    /// System node of each node along the beam, and the elements' order (nodes − 1).
+    pub nodes: Vec<usize>,
+    pub order: usize,
 }
 
 impl BeamInfo {
@@ -97,6 +103,9 @@ fn law_rows(j: &model::Joint) -> usize {
         | model::Joint::Revolute(_)
         | model::Joint::Prismatic(_)
         | model::Joint::Cylindrical(_) => 6,
+        model::Joint::Sliding(_) => 3,
+        model::Joint::SlidingScrew(_) => 4,
+        model::Joint::SlidingClamp(_) => 6,
     }
 }
 
@@ -315,6 +324,8 @@ impl System {
                     length: meshed.length,
                     spans: meshed.spans.clone(),
                     inertia: Vec::new(),
+                    nodes: meshed.nodes.clone(),
+                    order: meshed.elements[0].nodes.len() - 1,
                 };
                 *first += meshed.elements.len();
                 Some(info)
@@ -392,6 +403,105 @@ impl System {
 
         for (ji, j) in model.joints.iter().enumerate() {
             let path = format!("joints[{ji}]");
+            if let Some(sl) = j.sliding() {
+                let kind = match j {
+                    model::Joint::SlidingScrew(_) => SlidingKind::Screw,
+                    model::Joint::SlidingClamp(_) => SlidingKind::Clamp,
+                    _ => SlidingKind::Point,
+                };
+                let info = beam_info
+                    .iter()
+                    .find(|b| b.name == sl.beam)
+                    .expect("validated");
+                let beam_path = BeamPath::new(info.count, info.order);
+                let map = ArcMap::new(&info.spans, info.length);
+                let drive = sl
+                    .drive
+                    .as_ref()
+                    .map(|d| TimeFunction::new(d).map_err(|e| err(format!("{path}.drive"), e)))
+                    .transpose()?;
+                // Where the contact point starts: the drive's η(0), the given η, or the beam
+                // point closest to the follower.
+                let follower_side = if sl.follower == GROUND {
+                    Side::Ground {
+                        x: V3::zero(),
+                        r: M3::identity(),
+                    }
+                } else {
+                    Side::Node(index[&sl.follower])
+                };
+                let fol_pose = match follower_side {
+                    Side::Node(a) => (nodes[a].x, nodes[a].r),
+                    Side::Ground { x, r } => (x, r),
+                };
+                let zeta0 = match (&drive, sl.eta) {
+                    (Some(f), _) => map.zeta(f.value(0.0)),
+                    (None, Some(eta)) => map.zeta(eta),
+                    (None, None) => sliding::closest_point(&beam_path, info, &nodes, fol_pose.0),
+                };
+                let (point, _) = sliding::beam_point(&beam_path, info, &nodes, zeta0);
+                let triad = sliding::follower_triad(kind, &beam_path, info, &nodes, zeta0);
+                let at = [
+                    Attachment {
+                        offset: V3::zero(),
+                        triad: M3::identity(),
+                    },
+                    sliding::follower_attachment(fol_pose, point, triad),
+                ];
+                let c = coord_names.len();
+                coord_names.push(format!("{}.eta", sl.name));
+                coords0.push(zeta0);
+                let drive_index = drive.map(|f| {
+                    row_names.push((format!("{}.drive_eta", sl.name), 0));
+                    drives.push((c, drive_row, f, Some(map.clone())));
+                    drive_row += 1;
+                    drives.len() - 1
+                });
+                let spring = match &sl.spring {
+                    Some(s) => {
+                        let (law, damping) = sliding::spring_on_zeta(s, &map, info.length)
+                            .map_err(|e| {
+                                err(
+                                    format!("{path}.spring"),
+                                    format!("sliding joint `{}`: {e}", sl.name),
+                                )
+                            })?;
+                        springs.push(CoordinateSpring::new(c, law, damping, &layout));
+                        Some(springs.len() - 1)
+                    }
+                    None => None,
+                };
+                let law = ContactLaw { kind, at };
+                let nr = law.n_rows();
+                for k in 0..nr {
+                    row_names.push((sl.name.clone(), k));
+                }
+                joint_info.push(JointInfo {
+                    name: sl.name.clone(),
+                    kernel: joints.len(),
+                    coords: vec![JointCoordinate {
+                        name: "eta",
+                        coord: c,
+                        drive: drive_index,
+                        spring,
+                    }],
+                });
+                let mut kernel = SlidingJoint::new(
+                    sl.name.clone(),
+                    law,
+                    beam_path,
+                    info.nodes.clone(),
+                    follower_side,
+                    c,
+                    row,
+                    &layout,
+                    zeta0,
+                );
+                kernel.arc = map;
+                joints.push(Joint::Sliding(kernel));
+                row += nr;
+                continue;
+            }
             let (n1, n2) = j.nodes();
             let side_of = |n: &str| {
                 if n == GROUND {
@@ -451,7 +561,7 @@ impl System {
                 coords.push(c);
                 if let Some(f) = drive {
                     row_names.push((format!("{}.drive_{}", j.name(), co.name), 0));
-                    drives.push((c, drive_row, f));
+                    drives.push((c, drive_row, f, None));
                     drive_row += 1;
                 }
                 let spring = co.spring.map(|s| {
@@ -541,6 +651,9 @@ impl System {
                         pitch: r.pitch,
                     })
                 }
+                model::Joint::Sliding(_)
+                | model::Joint::SlidingScrew(_)
+                | model::Joint::SlidingClamp(_) => unreachable!("compiled above"),
             };
             coords0.extend_from_slice(&initial[..coords.len()]);
             let nr = law.n_rows();
@@ -570,7 +683,11 @@ impl System {
         debug_assert_eq!(names_sorted.len(), n_rows);
         let drive_kernels: Vec<CoordinateDrive> = drives
             .into_iter()
-            .map(|(c, drow, f)| CoordinateDrive::new(c, drow, f, &layout))
+            .map(|(c, drow, f, map)| {
+                let mut d = CoordinateDrive::new(c, drow, f, &layout);
+                d.map = map;
+                d
+            })
             .collect();
 
         // Loads; a distributed load becomes one point load per node of its beam.
