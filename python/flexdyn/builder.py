@@ -312,7 +312,9 @@ class Model:
         - `follower` may be "ground": a fixed guide the beam slides through.
         """
         if kind not in _SLIDING_TYPES:
-            raise ValueError(f"sliding joint `{name}`: kind must be one of {sorted(_SLIDING_TYPES)} (got {kind!r})")
+            raise ValueError(
+                f"sliding joint `{name}`: kind must be one of {sorted(_SLIDING_TYPES)} (got {kind!r})"
+            )
         fields = {"type": _SLIDING_TYPES[kind], "name": name, "beam": beam, "follower": follower}
         if isinstance(eta, Drive):
             fields["drive"] = eta.function

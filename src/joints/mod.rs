@@ -438,7 +438,13 @@ impl JointKernel {
         let f = v3(&g, 6);
         let m_node = v3(&g, 9);
         let arm = sf.r[1].mul_v(attach2);
-        (f, m_node - arm.cross(&f), sf.r[1].mul_m(&at2.triad))
+        // Step-average forces in the mid-step joint frame (statics: the end frame).
+        let r_frame = if ctx.is_static() {
+            sf.r[1]
+        } else {
+            crate::rotation::orthonormalize(&(si.r[1] + sf.r[1]).scale_f(0.5))
+        };
+        (f, m_node - arm.cross(&f), r_frame.mul_m(&at2.triad))
     }
 
     /// Constraint values at a state (for the violation sensor).

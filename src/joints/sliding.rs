@@ -475,11 +475,32 @@ impl SlidingJoint {
         let (f, m_node) = node_force(&t.b, &lam[..self.n_rows()], FOLLOWER_COL);
         let (_, r_f) = self.pose(ctx.state, self.follower, self.follower_slot, Some(yl));
         let arm = r_f.mul_v(&self.law.at[1].offset);
-        let zeta_f = ctx.state.coords[self.coord] + yl[self.coord_slot];
+        // The forces are step averages: give them in the mid-step section frame (the end
+        // frame would lean by half the step's rotation).
+        let zeta_i = ctx.state.coords[self.coord];
+        let zeta_f = zeta_i + yl[self.coord_slot];
         let mut end = ctx.state.clone();
         self.advance_nodes(&mut end, yl);
-        let (_, frame, _) = self.contact(&end, zeta_f);
+        let (df1, df2) = self.directors(&end, zeta_f);
+        let frame = if ctx.is_static() {
+            orthonormal_frame(df1, df2)
+        } else {
+            let (di1, di2) = self.directors(ctx.state, zeta_i);
+            orthonormal_frame(di1 + df1, di2 + df2)
+        };
         (f, m_node - arm.cross(&f), frame)
+    }
+
+    /// The interpolated directors `Σ h^α e₁^α`, `Σ h^α e₂^α` at ζ.
+    fn directors(&self, state: &State, zeta: f64) -> (V3<f64>, V3<f64>) {
+        let mut d1 = V3::zero();
+        let mut d2 = V3::zero();
+        for (n, h) in self.path.weights_in(zeta, self.path.all()).iter() {
+            let r = &state.nodes[self.beam_nodes[n]].r;
+            d1 += r.col(0).scale_f(h);
+            d2 += r.col(1).scale_f(h);
+        }
+        (d1, d2)
     }
 
     /// The window's nodes and the follower moved by the local increments (for evaluating the
