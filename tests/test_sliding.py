@@ -10,8 +10,28 @@ import pytest
 
 import flexdyn as fd
 
-SOFT = dict(ea=1e5, ga2=5e4, ga3=5e4, gj=400.0, ei2=500.0, ei3=500.0, m=1.6, i22=1e-3, i33=1e-3)
-STIFF = dict(ea=1e9, ga2=5e8, ga3=5e8, gj=1e7, ei2=1e7, ei3=1e7, m=1.0, i22=1e-4, i33=1e-4)
+SOFT = {
+    "ea": 1e5,
+    "ga2": 5e4,
+    "ga3": 5e4,
+    "gj": 400.0,
+    "ei2": 500.0,
+    "ei3": 500.0,
+    "m": 1.6,
+    "i22": 1e-3,
+    "i33": 1e-3,
+}
+STIFF = {
+    "ea": 1e9,
+    "ga2": 5e8,
+    "ga3": 5e8,
+    "gj": 1e7,
+    "ei2": 1e7,
+    "ei3": 1e7,
+    "m": 1.0,
+    "i22": 1e-4,
+    "i33": 1e-4,
+}
 
 
 def free_collar(scheme, order=3, kind="point", t_end=2.0):

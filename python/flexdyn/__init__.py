@@ -16,9 +16,9 @@ from .results import open_results, simulate, solve_static
 __all__ = [
     "FlexdynError",
     "Model",
-    "drive",
     "ModelError",
     "SolverError",
+    "drive",
     "load",
     "modes",
     "open_results",
