@@ -596,7 +596,17 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
     if m.factor().is_err() {
         return change;
     }
+    // The coordinates' small weight keeps the matrix regular but pulls their rates towards
+    // the initial guess (zero), which moves the given velocities by ~1e-9: a second solve
+    // with the first one's rates as the guess removes that bias (to ~1e-18).
+    let first = rhs.clone();
     m.solve(&mut rhs);
+    let mut again = first;
+    for c in 0..lay.n_coords {
+        again[lay.coord_delta(c)] = coord_weight * rhs[lay.coord_delta(c)];
+    }
+    m.solve(&mut again);
+    let rhs = again;
     for a in 0..lay.n_nodes {
         let d = lay.node_delta(a);
         let v = V3([rhs[d], rhs[d + 1], rhs[d + 2]]);
