@@ -533,9 +533,13 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
         if inertia[a].max_abs() <= 0.0 {
             inertia[a] = crate::vec3::M3::identity().scale_f(floor * sys.length_ref.powi(2));
         }
+        // Nodes without given velocities follow the given ones (weight 1e-6), but relative
+        // coordinates (joint rates, a sliding contact point's ζ̇: weight 1e-14 below) move
+        // first: a collar launched along a beam at rest slides along it rather than dragging
+        // the beam with it.
         if any_given && !sys.velocity_given[a] {
-            mass[a] *= 1e-12;
-            inertia[a] = inertia[a].scale_f(1e-12);
+            mass[a] *= 1e-6;
+            inertia[a] = inertia[a].scale_f(1e-6);
         }
     }
     for a in 0..lay.n_nodes {
@@ -551,7 +555,7 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
             }
         }
     }
-    let coord_weight = 1e-10 * sys.mass_ref * sys.length_ref.powi(2);
+    let coord_weight = 1e-14 * sys.mass_ref * sys.length_ref.powi(2);
     for c in 0..lay.n_coords {
         let b = blocks.len() - lay.n_coords + c;
         add(
@@ -596,17 +600,28 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
     if m.factor().is_err() {
         return change;
     }
-    // The coordinates' small weight keeps the matrix regular but pulls their rates towards
-    // the initial guess (zero), which moves the given velocities by ~1e-9: a second solve
-    // with the first one's rates as the guess removes that bias (to ~1e-18).
-    let first = rhs.clone();
+    // The small weights of unspecified velocities and coordinate rates keep the matrix
+    // regular but pull them towards their guesses (zero), which moves the given velocities
+    // by ~1e-6. Re-solving with the last solution as their guesses (a proximal iteration)
+    // shrinks that bias by the weight ratio each time: three solves leave ~1e-18.
+    let base = rhs.clone();
     m.solve(&mut rhs);
-    let mut again = first;
-    for c in 0..lay.n_coords {
-        again[lay.coord_delta(c)] = coord_weight * rhs[lay.coord_delta(c)];
+    for _ in 0..2 {
+        let mut next = base.clone();
+        for a in (0..lay.n_nodes).filter(|&a| any_given && !sys.velocity_given[a]) {
+            let d = lay.node_delta(a);
+            let w = inertia[a].mul_v(&V3([rhs[d + 3], rhs[d + 4], rhs[d + 5]]));
+            for k in 0..3 {
+                next[d + k] = mass[a] * rhs[d + k];
+                next[d + 3 + k] = w.0[k];
+            }
+        }
+        for c in 0..lay.n_coords {
+            next[lay.coord_delta(c)] = coord_weight * rhs[lay.coord_delta(c)];
+        }
+        m.solve(&mut next);
+        rhs = next;
     }
-    m.solve(&mut again);
-    let rhs = again;
     for a in 0..lay.n_nodes {
         let d = lay.node_delta(a);
         let v = V3([rhs[d], rhs[d + 1], rhs[d + 2]]);

@@ -298,7 +298,7 @@ class Model:
     def clamp(self, name, node1, node2):
         return self._joint("clamp", name, node1, node2)
 
-    def sliding_joint(self, name, beam, follower, eta=None, spring=None, kind="point"):
+    def sliding_joint(self, name, beam, follower, eta=None, spring=None, kind="point", end_stops=None):
         """The follower node stays in contact with `beam` at a moving point η = s/L.
 
         - `eta`: the initial η (a number; default: the beam point closest to the follower),
@@ -310,6 +310,8 @@ class Model:
           about its axis — pre-twist and elastic twist), or "clamp" (a sleeve: the follower
           keeps its orientation relative to the section).
         - `follower` may be "ground": a fixed guide the beam slides through.
+        - `end_stops`: {"stiffness": N/m}: elastic stops at the beam's ends (else a free contact
+          point reaching an end stops the run with a message).
         """
         if kind not in _SLIDING_TYPES:
             raise ValueError(
@@ -322,6 +324,8 @@ class Model:
             fields["eta"] = float(eta)
         if spring is not None:
             fields["spring"] = dict(spring)
+        if end_stops is not None:
+            fields["end_stops"] = dict(end_stops)
         self.data["joints"].append(fields)
         return self
 

@@ -530,7 +530,10 @@ impl Integrator {
         for sl in sys.joints.iter().filter_map(|j| j.as_sliding()) {
             let z = ctx.state.coords[sl.coord] + self.y[sys.layout.coord_delta(sl.coord)];
             let n = sl.path.elements as f64;
-            if !(-1e-9..=n + 1e-9).contains(&z) {
+            // With end stops the contact point runs past an end by the stop's compression
+            // (the end element extends); half an element means the stop is far too soft.
+            let slack = if sl.end_stops { 0.5 } else { 1e-9 };
+            if !(-slack..=n + slack).contains(&z) {
                 let beam = sys
                     .beam_info
                     .iter()
@@ -544,7 +547,11 @@ impl Integrator {
                 return Err(StepFailure {
                     t: ctx.t_i,
                     h: ctx.h,
-                    reason: format!("the contact point of sliding joint `{}` slid off the {end} of beam `{beam}`: nothing in the model stops it there; prescribe η with a drive, hold it with a spring, or lengthen the beam", sl.name),
+                    reason: if sl.end_stops {
+                        format!("the contact point of sliding joint `{}` ran half an element through its end stop at the {end} of beam `{beam}`: the stop is too soft for this impact; stiffen `end_stops`", sl.name)
+                    } else {
+                        format!("the contact point of sliding joint `{}` slid off the {end} of beam `{beam}`: nothing in the model stops it there; add `end_stops`, prescribe η with a drive, hold it with a spring, or lengthen the beam", sl.name)
+                    },
                     retry: false,
                     load_factor: ctx.statics,
                 });

@@ -117,6 +117,8 @@ pub struct SlidingJoint {
     pub row0: usize,
     /// The user's η = s/L against ζ (for outputs).
     pub arc: ArcMap,
+    /// Elastic stops at the ends: the contact point may run slightly past them.
+    pub end_stops: bool,
     /// First and last element the unknowns cover.
     window: (usize, usize),
     layout: Layout,
@@ -161,6 +163,7 @@ impl SlidingJoint {
             coord,
             row0,
             arc: ArcMap::uniform(elements),
+            end_stops: false,
             window: (usize::MAX, 0),
             layout: *layout,
             unknowns: vec![],

@@ -358,6 +358,19 @@ pub struct SlidingJoint {
     /// `table` gives the force in N against η). Needs a uniformly meshed beam.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spring: Option<SpringDamper>,
+    /// Elastic stops at the beam's ends (else a free contact point that reaches an end stops
+    /// the run): the contact point bounces off them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub end_stops: Option<EndStops>,
+}
+
+/// Elastic end stops of a sliding joint: no force on the beam, a linear spring of the given
+/// stiffness as the contact point runs past an end (its energy is conserved by EP).
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct EndStops {
+    /// N/m of penetration past the end.
+    pub stiffness: f64,
 }
 
 #[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]

@@ -141,6 +141,20 @@ impl Model {
                 );
             }
         }
+        if let Some(stops) = &sl.end_stops {
+            if !(stops.stiffness.is_finite() && stops.stiffness > 0.0) {
+                c.err(
+                    format!("{p}.end_stops.stiffness"),
+                    format!(
+                        "{who}: must be a positive number of N/m (got {})",
+                        stops.stiffness
+                    ),
+                );
+            }
+            if sl.drive.is_some() {
+                c.err(format!("{p}.end_stops"), format!("{who}: a prescribed η never reaches a stop; remove `end_stops` or the drive"));
+            }
+        }
         if let Some(Ok(f)) = sl.drive.as_ref().map(TimeFunction::new) {
             if let Some((t, eta)) = drive_leaves_beam(&f, self.simulation.t_end) {
                 c.err(format!("{p}.drive"), format!("{who}: the prescribed η leaves the beam at t = {t:.6} s (η = {eta:.6}); η must stay in [0, 1] over the whole run"));

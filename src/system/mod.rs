@@ -471,6 +471,10 @@ impl System {
                     }
                     None => None,
                 };
+                if let Some(stops) = &sl.end_stops {
+                    let law = sliding::end_stops_on_zeta(stops.stiffness, info);
+                    springs.push(CoordinateSpring::new(c, law, 0.0, &layout));
+                }
                 let law = ContactLaw { kind, at };
                 let nr = law.n_rows();
                 for k in 0..nr {
@@ -498,6 +502,7 @@ impl System {
                     zeta0,
                 );
                 kernel.arc = map;
+                kernel.end_stops = sl.end_stops.is_some();
                 joints.push(Joint::Sliding(kernel));
                 row += nr;
                 continue;

@@ -141,3 +141,20 @@ pub fn spring_on_zeta(
     };
     Ok((law, spring.damping * ds * ds))
 }
+
+/// Elastic end stops as a spring on ζ: no force on the beam, `k (s − s_end)` past an end, with
+/// `s` measured along the end element (`k_ζ = k ds²`, ds the end element's length per unit ζ).
+pub fn end_stops_on_zeta(stiffness: f64, info: &BeamInfo) -> SpringLaw {
+    let n = info.count as f64;
+    let first = info.spans[0].1 - info.spans[0].0;
+    let last = info.spans[info.count - 1].1 - info.spans[info.count - 1].0;
+    SpringLaw::table(
+        vec![-1.0, 0.0, n, n + 1.0],
+        vec![
+            -stiffness * first * first,
+            0.0,
+            0.0,
+            stiffness * last * last,
+        ],
+    )
+}
