@@ -5,7 +5,6 @@ they describe the same motion. As the beam's stiffness grows, the two must conve
 answer; when it is flexible they must differ sharply."""
 
 import numpy as np
-import pytest
 from test_case2_assemblies import BEAM, beam_slider_case2
 
 import flexdyn as fd
