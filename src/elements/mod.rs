@@ -18,6 +18,10 @@ use crate::vec3::V3;
 /// has the most: a window of 10 beam nodes and the follower (11×12), ζ and its jump, and
 /// 2×6 multipliers = 146.
 pub const MAX_LOCAL: usize = 160;
+/// Largest block differentiated in one piece with dual numbers (a two-node joint under ED has
+/// 2×12 + 2×2 + 2×8 = 44; a sliding joint differentiates node by node). Kept small: the
+/// dual-number buffers are initialised on every evaluation.
+pub const MAX_DUAL_LOCAL: usize = 64;
 
 /// What a kernel needs to know about the step being taken.
 pub struct StepCtx<'a> {
@@ -54,6 +58,20 @@ pub trait Kernel {
     fn unknowns(&self) -> &[usize];
     /// Residual contributions over the local unknowns `y` (rows scaled by 1/h: forces).
     fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], r: &mut [T]);
+    /// Adds the residual and, if asked, the exact tangent block (see [`eval_kernel`]). A
+    /// kernel whose residual is a sum of small parts over subsets of its unknowns (a sliding
+    /// joint's window) differentiates them part by part.
+    fn evaluate(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        res: &mut [f64],
+        jac: Option<(&mut [f64], &[usize])>,
+    ) where
+        Self: Sized,
+    {
+        eval_kernel(self, ctx, y, res, jac)
+    }
     /// The structurally nonzero entries of the tangent block (row-major), probed at a
     /// generic state and unknowns `y`. A kernel whose block depends on where the step goes
     /// (a sliding joint's contact point changing element) covers every case it allows.
@@ -94,8 +112,12 @@ pub fn eval_kernel<K: Kernel>(
         }
         Some((vals, pos)) => {
             type D = Dual<DUAL_WIDTH>;
-            let mut yl = [D::constant(0.0); MAX_LOCAL];
-            let mut rl = [D::constant(0.0); MAX_LOCAL];
+            assert!(
+                n <= MAX_DUAL_LOCAL,
+                "kernel block of {n} unknowns is too large to differentiate in one piece"
+            );
+            let mut yl = [D::constant(0.0); MAX_DUAL_LOCAL];
+            let mut rl = [D::constant(0.0); MAX_DUAL_LOCAL];
             let mut start = 0;
             while start < n.max(1) {
                 for (l, &g) in idx.iter().enumerate() {
@@ -131,7 +153,7 @@ pub fn block_structure<K: Kernel>(k: &K, ctx: &StepCtx, y: &[f64]) -> Vec<bool> 
     let pos: Vec<usize> = (0..n * n).collect();
     let mut vals = vec![0.0; n * n];
     let mut res = vec![0.0; y.len()];
-    eval_kernel(k, ctx, y, &mut res, Some((&mut vals, &pos)));
+    k.evaluate(ctx, y, &mut res, Some((&mut vals, &pos)));
     let scale = vals.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     vals.iter().map(|v| v.abs() > 1e-13 * scale).collect()
 }
@@ -163,7 +185,7 @@ pub mod fd_harness {
         let pos: Vec<usize> = (0..n * n).collect();
         let mut vals = vec![0.0; n * n];
         let mut res = vec![0.0; ng];
-        eval_kernel(k, ctx, y, &mut res, Some((&mut vals, &pos)));
+        k.evaluate(ctx, y, &mut res, Some((&mut vals, &pos)));
         let scale = vals.iter().fold(1.0f64, |m, v| m.max(v.abs()));
         let mut worst = 0.0f64;
         for j in 0..n {
@@ -175,8 +197,8 @@ pub mod fd_harness {
             ym[g] -= e;
             let mut rp = vec![0.0; ng];
             let mut rm = vec![0.0; ng];
-            eval_kernel(k, ctx, &yp, &mut rp, None);
-            eval_kernel(k, ctx, &ym, &mut rm, None);
+            k.evaluate(ctx, &yp, &mut rp, None);
+            k.evaluate(ctx, &ym, &mut rm, None);
             for i in 0..n {
                 let fd = (rp[idx[i]] - rm[idx[i]]) / (2.0 * e);
                 worst = worst.max((vals[i * n + j] - fd).abs() / scale);

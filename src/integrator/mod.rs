@@ -2,7 +2,7 @@
 //! sparse LU's symbolic analysis reused, and the bookkeeping of the energy identity (work of
 //! drives, loads, dampers and constraints, and ED's jump dissipation).
 
-use crate::elements::{eval_kernel, StepCtx};
+use crate::elements::{Kernel, StepCtx};
 use crate::model::SimulationSettings;
 use crate::rotation::{cayley, check_step_rotation, orthonormalize};
 use crate::state::{NodeState, State};
@@ -278,7 +278,7 @@ impl Integrator {
                     } else {
                         None
                     };
-                    eval_kernel(k, ctx, y, res, jac);
+                    k.evaluate(ctx, y, res, jac);
                 }
             };
         }

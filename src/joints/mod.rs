@@ -210,6 +210,15 @@ impl Kernel for Joint {
     fn structure(&self, ctx: &StepCtx, y: &[f64]) -> Vec<bool> {
         each_joint!(self, j => j.structure(ctx, y))
     }
+    fn evaluate(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        res: &mut [f64],
+        jac: Option<(&mut [f64], &[usize])>,
+    ) {
+        each_joint!(self, j => j.evaluate(ctx, y, res, jac))
+    }
 }
 
 /// One side of a joint: a node with unknowns, or the ground (a fixed pose).

@@ -131,6 +131,129 @@ pub struct SlidingJoint {
 /// Dense per-window-node weights.
 type Weights<T> = [T; MAX_WINDOW_NODES];
 
+/// A node's share has the columns `[node, follower, ζ]`.
+const SHARE_NC: usize = 13;
+const SHARE_ZETA: usize = 12;
+/// Unknowns of a share: node and follower (12 each under ED), ζ and its jump, 2 × 6
+/// multipliers.
+const MAX_SHARE: usize = 12 + 12 + 2 + 2 * MAX_ROWS;
+
+/// The window's weights for one step: `h(ζ_i)`, `h(ζ_f)`, the secant, `h′(ζ_i)`, `h′(ζ_f)`.
+struct WindowWeights<T> {
+    hi: Weights<T>,
+    hf: Weights<T>,
+    sec: Weights<T>,
+    dhi: Weights<T>,
+    dhf: Weights<T>,
+}
+
+impl<T: Real> WindowWeights<T> {
+    /// Whether node j takes part in the step (a weight or a derivative of one is nonzero).
+    fn active(&self, j: usize) -> bool {
+        [
+            self.hi[j],
+            self.hf[j],
+            self.sec[j],
+            self.dhi[j],
+            self.dhf[j],
+        ]
+        .iter()
+        .any(|w| w.re() != 0.0)
+    }
+}
+
+/// One node's share of the value and gradients.
+struct Share<T> {
+    c_f: [T; MAX_ROWS],
+    b: Grad<T, SHARE_NC>,
+    rates: Option<(Grad<T, SHARE_NC>, Grad<T, SHARE_NC>)>,
+}
+
+/// Adds a share's columns into the joint's: node j's block, the follower's, ζ.
+fn scatter<T: Real>(b: &mut Grad<T, NC>, share: &Grad<T, SHARE_NC>, col: usize, n: usize) {
+    for r in 0..n {
+        for c in 0..6 {
+            b[r][col + c] += share[r][c];
+            b[r][FOLLOWER_COL + c] += share[r][6 + c];
+        }
+        b[r][ZETA_COL] += share[r][SHARE_ZETA];
+    }
+}
+
+/// Node j's share of a sliding joint as a kernel over its own unknowns (a subset of the
+/// joint's, `map` giving their places in the joint's local block).
+struct NodeShare<'a> {
+    joint: &'a SlidingJoint,
+    j: usize,
+    map: [usize; MAX_SHARE],
+    unknowns: [usize; MAX_SHARE],
+    len: usize,
+}
+
+impl Kernel for NodeShare<'_> {
+    fn unknowns(&self) -> &[usize] {
+        &self.unknowns[..self.len]
+    }
+
+    fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], res: &mut [T]) {
+        let joint = self.joint;
+        let per = joint.per();
+        let n = joint.n_rows();
+        let node_slot = 0;
+        let fol_slot = joint.follower_slot.map(|_| 6 * per);
+        let coord_slot = 6 * per * (1 + usize::from(fol_slot.is_some()));
+        let mult_slot = coord_slot + per;
+        let zf = T::cst(ctx.state.coords[joint.coord]) + y[coord_slot];
+        let w = joint.window_weights(ctx, zf);
+        let side = Side::Node(joint.beam_nodes[joint.first_node() + self.j]);
+        let node = [
+            joint.pose::<T>(ctx.state, side, None, None),
+            joint.pose(ctx.state, side, Some(node_slot), Some(y)),
+        ];
+        let fol = [
+            joint.pose::<T>(ctx.state, joint.follower, None, None),
+            joint.pose(ctx.state, joint.follower, fol_slot, Some(y)),
+        ];
+        let share = joint.node_share(ctx, self.j, &w, node, fol);
+        let ed = ctx.ed();
+        let mut blocks = [NodeColumns {
+            col: 0,
+            delta: node_slot,
+            jump: ed.then_some(node_slot + 6),
+            r_i: node[0].1,
+            r_f: node[1].1,
+        }; 2];
+        let mut nb = 1;
+        if let Some(d) = fol_slot {
+            blocks[1] = NodeColumns {
+                col: 6,
+                delta: d,
+                jump: ed.then_some(d + 6),
+                r_i: fol[0].1,
+                r_f: fol[1].1,
+            };
+            nb = 2;
+        }
+        let coords = [CoordColumn {
+            col: SHARE_ZETA,
+            slot: coord_slot,
+        }];
+        let map = ColumnMap {
+            nodes: &blocks[..nb],
+            coords: &coords,
+            mult: mult_slot,
+            n_rows: n,
+        };
+        let rates = share.rates.as_ref().map(|(a, b)| (a, b));
+        let terms = ConstraintTerms {
+            c_f: &share.c_f[..n],
+            b: &share.b,
+            rates,
+        };
+        add_constraint_equations(ctx, &map, &terms, y, res);
+    }
+}
+
 /// Everything one evaluation of the joint produces.
 struct Terms<T> {
     c_f: [T; MAX_ROWS],
@@ -303,38 +426,110 @@ impl SlidingJoint {
         }
     }
 
-    /// Adds `w·pair` (the pair law's 12 columns) into the node's and the follower's columns.
-    fn blend<T: Real>(b: &mut Grad<T, NC>, pair: &Rows<T>, w: T, col: usize, n: usize) {
+    /// Adds `w·pair` (the pair law's 12 columns: node, follower) into a share's columns.
+    fn blend<T: Real>(b: &mut Grad<T, SHARE_NC>, pair: &Rows<T>, w: T, n: usize) {
         for r in 0..n {
-            for c in 0..6 {
-                b[r][col + c] += pair[r][c] * w;
-                b[r][FOLLOWER_COL + c] += pair[r][6 + c] * w;
+            for c in 0..12 {
+                b[r][c] += pair[r][c] * w;
             }
         }
     }
 
-    /// The joint's value and gradients for a step (or a static solve) at the local block `y`.
+    /// The shape-function weights of the window's nodes for a step from ζ_i to `zf`.
+    fn window_weights<T: Real>(&self, ctx: &StepCtx, zf: T) -> WindowWeights<T> {
+        let range = self.window;
+        let zi = T::cst(ctx.state.coords[self.coord]);
+        let none = [T::zero(); MAX_WINDOW_NODES];
+        let statics = ctx.is_static();
+        WindowWeights {
+            hi: if statics {
+                none
+            } else {
+                self.dense(&self.path.weights_in(zi, range))
+            },
+            hf: self.dense(&self.path.weights_in(zf, range)),
+            dhf: self.dense(&self.path.tangent_weights(zf, range)),
+            sec: if statics {
+                none
+            } else {
+                self.dense(&self.path.secant_in(zi, zf, range))
+            },
+            dhi: if ctx.ed() {
+                self.dense(&self.path.tangent_weights(zi, range))
+            } else {
+                none
+            },
+        }
+    }
+
+    /// Window node `j`'s share of the joint's equations: its pair law with the follower,
+    /// blended by its weights, over the columns `[node j, follower, ζ]`. The joint's value and
+    /// gradients are the sums of these shares.
+    #[allow(clippy::too_many_arguments)]
+    fn node_share<T: Real>(
+        &self,
+        ctx: &StepCtx,
+        j: usize,
+        w: &WindowWeights<T>,
+        node: [(V3<T>, M3<T>); 2],
+        fol: [(V3<T>, M3<T>); 2],
+    ) -> Share<T> {
+        let n = self.n_rows();
+        let si = Self::pair_state(node[0], fol[0]);
+        let sf = Self::pair_state(node[1], fol[1]);
+        let (mut gi, mut gf) = ([T::zero(); MAX_ROWS], [T::zero(); MAX_ROWS]);
+        self.law.value(&si, &mut gi);
+        self.law.value(&sf, &mut gf);
+        let mut share = Share {
+            c_f: [T::zero(); MAX_ROWS],
+            b: zero_grad(),
+            rates: ctx.ed().then(|| (zero_grad(), zero_grad())),
+        };
+        for r in 0..n {
+            share.c_f[r] = w.hf[j] * gf[r];
+        }
+        let mut pair = [[T::zero(); NCOL]; MAX_ROWS];
+        if ctx.is_static() {
+            // B(q_f): h_f B_g(f), and on ζ h_f′ g_f.
+            self.law.rate(&sf, &mut pair);
+            Self::blend(&mut share.b, &pair, w.hf[j], n);
+            for r in 0..n {
+                share.b[r][SHARE_ZETA] = w.dhf[j] * gf[r];
+            }
+        } else {
+            // B^D: h_m B_g^D, and on ζ S g_m (eq. 33 generalised).
+            self.law.discrete_gradient(&si, &sf, &mut pair);
+            Self::blend(&mut share.b, &pair, (w.hi[j] + w.hf[j]) * 0.5, n);
+            for r in 0..n {
+                share.b[r][SHARE_ZETA] = w.sec[j] * (gi[r] + gf[r]) * 0.5;
+            }
+        }
+        if let Some((b_i, b_f)) = share.rates.as_mut() {
+            pair = [[T::zero(); NCOL]; MAX_ROWS];
+            self.law.rate(&si, &mut pair);
+            Self::blend(b_i, &pair, w.hi[j], n);
+            pair = [[T::zero(); NCOL]; MAX_ROWS];
+            self.law.rate(&sf, &mut pair);
+            Self::blend(b_f, &pair, w.hf[j], n);
+            for r in 0..n {
+                b_i[r][SHARE_ZETA] = w.dhi[j] * gi[r];
+                b_f[r][SHARE_ZETA] = w.dhf[j] * gf[r];
+            }
+        }
+        share
+    }
+
+    /// The joint's value and gradients for a step (or a static solve) at the local block `y`:
+    /// the sum of the active nodes' shares.
     fn terms<T: Real>(&self, ctx: &StepCtx, y: &[T]) -> Terms<T> {
         let n = self.n_rows();
-        let range = self.window;
-        let zi = ctx.state.coords[self.coord];
-        let zi_t = T::cst(zi);
-        let zf = zi_t + y[self.coord_slot];
-        let statics = ctx.is_static();
+        let zf = T::cst(ctx.state.coords[self.coord]) + y[self.coord_slot];
         let ed = ctx.ed();
-        let hi = self.dense(&self.path.weights_in(zi_t, range));
-        let hf = self.dense(&self.path.weights_in(zf, range));
-        let dhf = self.dense(&self.path.tangent_weights(zf, range));
-        let (sec, dhi) = if statics {
-            ([T::zero(); MAX_WINDOW_NODES], [T::zero(); MAX_WINDOW_NODES])
-        } else {
-            (
-                self.dense(&self.path.secant_in(zi_t, zf, range)),
-                self.dense(&self.path.tangent_weights(zi_t, range)),
-            )
-        };
-        let fol_i = self.pose::<T>(ctx.state, self.follower, None, None);
-        let fol_f = self.pose(ctx.state, self.follower, self.follower_slot, Some(y));
+        let w = self.window_weights(ctx, zf);
+        let fol = [
+            self.pose::<T>(ctx.state, self.follower, None, None),
+            self.pose(ctx.state, self.follower, self.follower_slot, Some(y)),
+        ];
         let per = self.per();
         let mut t = Terms {
             c_f: [T::zero(); MAX_ROWS],
@@ -343,59 +538,28 @@ impl SlidingJoint {
             nodes: [None; MAX_WINDOW_NODES + 1],
         };
         let first = self.first_node();
-        let zero = |w: &T| w.re() == 0.0;
-        for j in 0..=(self.last_node() - first) {
-            let active =
-                !(zero(&hi[j]) && zero(&hf[j]) && zero(&sec[j]) && zero(&dhf[j]) && zero(&dhi[j]));
-            if !active {
-                continue;
-            }
+        for j in (0..=(self.last_node() - first)).filter(|&j| w.active(j)) {
             let side = Side::Node(self.beam_nodes[first + j]);
             let slot = 6 * per * j;
-            let node_i = self.pose::<T>(ctx.state, side, None, None);
-            let node_f = self.pose(ctx.state, side, Some(slot), Some(y));
-            let si = Self::pair_state(node_i, fol_i);
-            let sf = Self::pair_state(node_f, fol_f);
-            let (mut gi, mut gf) = ([T::zero(); MAX_ROWS], [T::zero(); MAX_ROWS]);
-            self.law.value(&si, &mut gi);
-            self.law.value(&sf, &mut gf);
-            let mut pair = [[T::zero(); NCOL]; MAX_ROWS];
+            let node = [
+                self.pose::<T>(ctx.state, side, None, None),
+                self.pose(ctx.state, side, Some(slot), Some(y)),
+            ];
+            let share = self.node_share(ctx, j, &w, node, fol);
             for r in 0..n {
-                t.c_f[r] += hf[j] * gf[r];
+                t.c_f[r] += share.c_f[r];
             }
-            if statics {
-                // B(q_f): Σ h_f B_g(f) and, on ζ, P′-like Σ h_f′ g_f.
-                self.law.rate(&sf, &mut pair);
-                Self::blend(&mut t.b, &pair, hf[j], 6 * j, n);
-                for r in 0..n {
-                    t.b[r][ZETA_COL] += dhf[j] * gf[r];
-                }
-            } else {
-                // B^D: Σ h_m B_g^D and, on ζ, Σ S g_m.
-                self.law.discrete_gradient(&si, &sf, &mut pair);
-                Self::blend(&mut t.b, &pair, (hi[j] + hf[j]) * 0.5, 6 * j, n);
-                for r in 0..n {
-                    t.b[r][ZETA_COL] += sec[j] * (gi[r] + gf[r]) * 0.5;
-                }
-            }
-            if let Some((b_i, b_f)) = t.rates.as_mut() {
-                pair = [[T::zero(); NCOL]; MAX_ROWS];
-                self.law.rate(&si, &mut pair);
-                Self::blend(b_i, &pair, hi[j], 6 * j, n);
-                pair = [[T::zero(); NCOL]; MAX_ROWS];
-                self.law.rate(&sf, &mut pair);
-                Self::blend(b_f, &pair, hf[j], 6 * j, n);
-                for r in 0..n {
-                    b_i[r][ZETA_COL] += dhi[j] * gi[r];
-                    b_f[r][ZETA_COL] += dhf[j] * gf[r];
-                }
+            scatter(&mut t.b, &share.b, 6 * j, n);
+            if let (Some((b_i, b_f)), Some((s_i, s_f))) = (t.rates.as_mut(), share.rates.as_ref()) {
+                scatter(b_i, s_i, 6 * j, n);
+                scatter(b_f, s_f, 6 * j, n);
             }
             t.nodes[j] = Some(NodeColumns {
                 col: 6 * j,
                 delta: slot,
                 jump: ed.then_some(slot + 6),
-                r_i: node_i.1,
-                r_f: node_f.1,
+                r_i: node[0].1,
+                r_f: node[1].1,
             });
         }
         if let Some(d) = self.follower_slot {
@@ -403,11 +567,42 @@ impl SlidingJoint {
                 col: FOLLOWER_COL,
                 delta: d,
                 jump: ed.then_some(d + 6),
-                r_i: fol_i.1,
-                r_f: fol_f.1,
+                r_i: fol[0].1,
+                r_f: fol[1].1,
             });
         }
         t
+    }
+
+    /// Node `j`'s share as a small kernel of its own unknowns (node j, follower, ζ,
+    /// multipliers), for differentiating the joint share by share.
+    fn share_kernel(&self, j: usize) -> NodeShare<'_> {
+        let per = self.per();
+        let mut map = [0usize; MAX_SHARE];
+        let mut len = 0;
+        let mut push = |from: usize, count: usize| {
+            for k in 0..count {
+                map[len] = from + k;
+                len += 1;
+            }
+        };
+        push(6 * per * j, 6 * per);
+        if let Some(d) = self.follower_slot {
+            push(d, 6 * per);
+        }
+        push(self.coord_slot, per);
+        push(self.mult_slot, per * self.n_rows());
+        let mut unknowns = [0usize; MAX_SHARE];
+        for k in 0..len {
+            unknowns[k] = self.unknowns[map[k]];
+        }
+        NodeShare {
+            joint: self,
+            j,
+            map,
+            unknowns,
+            len,
+        }
     }
 
     fn with_map<T: Real, R>(&self, t: &Terms<T>, f: impl FnOnce(&ColumnMap<T>) -> R) -> R {
@@ -646,6 +841,35 @@ impl Kernel for SlidingJoint {
             rates,
         };
         self.with_map(&t, |map| add_constraint_equations(ctx, map, &terms, y, res));
+    }
+
+    /// The residual is a sum of the window nodes' shares, each depending on one node, the
+    /// follower, ζ and the multipliers: the tangent is assembled share by share (a few small
+    /// dual-number passes each) rather than by differentiating the whole window at once.
+    fn evaluate(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        res: &mut [f64],
+        jac: Option<(&mut [f64], &[usize])>,
+    ) {
+        let Some((vals, pos)) = jac else {
+            return crate::elements::eval_kernel(self, ctx, y, res, None);
+        };
+        let n = self.unknowns.len();
+        let zf = ctx.state.coords[self.coord] + y[self.unknowns[self.coord_slot]];
+        let w = self.window_weights::<f64>(ctx, zf);
+        let mut spos = [0usize; MAX_SHARE * MAX_SHARE];
+        for j in (0..=(self.last_node() - self.first_node())).filter(|&j| w.active(j)) {
+            let share = self.share_kernel(j);
+            let ns = share.len;
+            for a in 0..ns {
+                for b in 0..ns {
+                    spos[a * ns + b] = pos[share.map[a] * n + share.map[b]];
+                }
+            }
+            crate::elements::eval_kernel(&share, ctx, y, res, Some((vals, &spos[..ns * ns])));
+        }
     }
 
     /// The pattern must hold wherever ζ goes in the window during the step: the union of
