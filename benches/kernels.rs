@@ -40,6 +40,18 @@ fn newton_iteration(c: &mut Criterion) {
             )
             .unwrap(),
         ),
+        (
+            // A sliding joint on a 12-element cubic beam.
+            "free_collar",
+            from_yaml_str(
+                &std::fs::read_to_string(concat!(
+                    env!("CARGO_MANIFEST_DIR"),
+                    "/examples/free_collar.yaml"
+                ))
+                .unwrap(),
+            )
+            .unwrap(),
+        ),
     ] {
         for scheme in [Scheme::Ep, Scheme::Ed] {
             let mut sim = Simulation::with_scheme(&model, scheme).unwrap();
