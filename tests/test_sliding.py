@@ -342,3 +342,47 @@ def test_ed_contact_force_has_no_spikes_at_element_crossings():
     assert d2[near].max() <= 1.5 * d2[~near].max(), (d2[near].max(), d2[~near].max())
     # And the force is the collar's weight plus a modest dynamic part.
     assert np.median(np.abs(force)) == pytest.approx(98.1, rel=0.1)
+
+
+def collar_on_cantilever(kind="point"):
+    beam = {
+        "ea": 44e6,
+        "ga2": 2.8e6,
+        "ga3": 14e6,
+        "gj": 28e3,
+        "ei2": 300e3,
+        "ei3": 300e3,
+        "m": 1.6,
+        "i22": 1e-3,
+        "i33": 1e-3,
+    }
+    m = fd.Model("collar on a cantilever", gravity=[0, -9.81, 0])
+    m.beam("beam", [0, 0, 0], [2.4, 0, 0], elements=6, section=beam, e2=[0, 1, 0])
+    m.clamp("root", "ground", "beam.0")
+    m.node("collar", [1.2, 0, 0])
+    m.rigid_body("collar_mass", "collar", mass=10.0, inertia=[0.05, 0.05, 0.05])
+    m.sliding_joint("slider", "beam", "collar", eta=fd.drive(0.5), kind=kind)
+    m.sensor("joint_reaction", "contact_force", joint="slider")
+    m.sensor("node_displacement", "u", node="collar")
+    m.settings(analysis="static", load_steps=2)
+    return m
+
+
+def test_static_collar_weight_bends_the_cantilever_as_timoshenko_says():
+    m = collar_on_cantilever()
+    for b in m.data["beams"]:  # a massless beam: only the collar's weight loads it
+        b["section"].update(m=1e-9, i22=1e-12, i33=1e-12)
+    res = fd.solve_static(m)
+    weight, a, ei, ga = 10 * 9.81, 1.2, 300e3, 2.8e6
+    # Deflection under a point load at a: W a³/3EI + W a/GA (cubic elements: exact).
+    assert res["u.y"].values[-1] == pytest.approx(-(weight * a**3 / (3 * ei) + weight * a / ga), rel=1e-5)
+    assert res["contact_force.F2"].values[-1] == pytest.approx(weight, rel=1e-6)
+
+
+def test_modes_about_a_static_contact_see_the_collars_free_spin():
+    # A point contact leaves the collar free to turn about all three axes (three zero modes);
+    # a sliding clamp holds it to the section (none).
+    point = fd.modes(collar_on_cantilever("point"), 4)
+    clamp = fd.modes(collar_on_cantilever("clamp"), 4)
+    assert np.sum(point["omega"].values < 1e-2) == 3
+    assert np.all(clamp["omega"].values > 10.0)
