@@ -426,3 +426,13 @@ def test_beam_slides_through_a_fixed_sleeve():
     assert np.max(np.abs(res["guide.F1"].values)) < 1e-9
     E = res["E.total"].values
     assert np.max(np.abs(E - E[0])) < 1e-10 * E[0]
+
+
+def test_a_follower_on_its_own_beam_is_reported():
+    m = driven_collar()
+    m.data["joints"][1]["follower"] = "track.3"
+    with pytest.raises(
+        fd.ModelError,
+        match=r"joints\[1\]\.follower: sliding joint `slider`: the follower `track\.3` is a node of beam `track` itself",
+    ):
+        fd.simulate(m)

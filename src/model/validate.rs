@@ -119,9 +119,14 @@ impl Model {
             );
             return;
         };
-        if [&beam.start_node, &beam.end_node]
-            .iter()
-            .any(|n| n.as_deref() == Some(sl.follower.as_str()))
+        let own_node = sl
+            .follower
+            .strip_prefix(&format!("{}.", sl.beam))
+            .is_some_and(|k| k.parse::<usize>().is_ok());
+        if own_node
+            || [&beam.start_node, &beam.end_node]
+                .iter()
+                .any(|n| n.as_deref() == Some(sl.follower.as_str()))
         {
             c.err(format!("{p}.follower"), format!("{who}: the follower `{}` is a node of beam `{}` itself; a follower must belong to another body", sl.follower, sl.beam));
         }
