@@ -205,6 +205,9 @@ impl PySimulation {
         let d = PyDict::new(py);
         d.set_item("steps", s.steps)?;
         d.set_item("halvings", s.halvings)?;
+        d.set_item("rejected", s.rejected)?;
+        d.set_item("dt_smallest", s.dt_smallest)?;
+        d.set_item("dt_largest", s.dt_largest)?;
         d.set_item("newton_iterations", s.newton_iterations)?;
         d.set_item("factorizations", s.factorizations)?;
         d.set_item("orderings", s.orderings)?;

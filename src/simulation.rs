@@ -4,7 +4,7 @@
 use crate::elements::StepCtx;
 use crate::integrator::{Integrator, StepFailure, StepReport};
 use crate::joints::{Joint, RateTerm};
-use crate::model::{Analysis, Model, ModelErrors, Scheme, SimulationSettings};
+use crate::model::{Analysis, Model, ModelErrors, Scheme, SimulationSettings, StepControl};
 use crate::sensors::{Channels, Totals};
 use crate::state::State;
 use crate::system::layout::Layout;
@@ -12,7 +12,7 @@ use crate::system::sparse::NewtonMatrix;
 use crate::system::System;
 use crate::vec3::V3;
 
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct RunStats {
     pub steps: usize,
     /// Steps whose Newton iteration failed and were retried with half the step.
@@ -29,6 +29,31 @@ pub struct RunStats {
     pub pattern_misses: usize,
     /// Newton-matrix patterns rebuilt because a sliding contact point changed element.
     pub pattern_rebuilds: usize,
+    /// Adaptive stepping: steps rejected (error too large, or Newton failed) and retried.
+    pub rejected: usize,
+    /// Smallest and largest step taken, s.
+    pub dt_smallest: f64,
+    pub dt_largest: f64,
+}
+
+impl Default for RunStats {
+    fn default() -> Self {
+        RunStats {
+            steps: 0,
+            halvings: 0,
+            newton_iterations: 0,
+            factorizations: 0,
+            orderings: 0,
+            max_constraint_violation: 0.0,
+            max_constraint_work: 0.0,
+            max_energy_defect: 0.0,
+            pattern_misses: 0,
+            pattern_rebuilds: 0,
+            rejected: 0,
+            dt_smallest: f64::INFINITY,
+            dt_largest: 0.0,
+        }
+    }
 }
 
 #[derive(Debug)]
@@ -64,7 +89,14 @@ pub struct Simulation {
     /// Step-channel values of the last two steps, with their mid-step times.
     recent: std::collections::VecDeque<(f64, Vec<f64>)>,
     step_index: u64,
-    output_every: u64,
+    /// Index of the next requested output time (k·output_dt).
+    output_index: u64,
+    /// State channels at the current state (the start of the next step).
+    last_row: Vec<f64>,
+    /// Adaptive stepping: the size proposed for the next step; the previous step's size and
+    /// its start velocities (for the error predictor).
+    h_next: f64,
+    previous_step: Option<(f64, Vec<(V3<f64>, V3<f64>)>)>,
     /// Static analysis: the load factor of the current state.
     load_factor: f64,
 }
@@ -119,9 +151,6 @@ impl Simulation {
             per_drive_work: vec![0.0; system.drives.len()],
             ..Default::default()
         };
-        let output_every = settings
-            .output_dt
-            .map_or(1, |o| (o / settings.dt).round().max(1.0) as u64);
         let mut sim = Simulation {
             system,
             settings,
@@ -137,9 +166,13 @@ impl Simulation {
             pending: Default::default(),
             recent: Default::default(),
             step_index: 0,
-            output_every,
+            output_index: 1,
+            last_row: vec![],
+            h_next: 0.0,
+            previous_step: None,
             load_factor: 0.0,
         };
+        sim.h_next = sim.settings.dt;
         if statics {
             // The unloaded state, with no reactions yet.
             let mut row = Vec::with_capacity(sim.channels.len());
@@ -276,17 +309,61 @@ impl Simulation {
         }
     }
 
-    /// Records a sample at the current time. Its state channels are final; its step channels
-    /// (multipliers) wait in `pending` for the step after it, to be interpolated.
+    /// Records a sample at the current time (the start of a run). Its state channels are
+    /// final; its step channels (multipliers) wait in `pending` for the step after it.
     fn record(&mut self) {
         let mut row = Vec::with_capacity(self.channels.len());
         self.channels
             .sample(&self.system, &self.state, &self.totals, &mut row);
+        self.last_row = row.clone();
+        self.emit(self.state.t, row);
+    }
+
+    /// After a step from `t_i`: records every requested output time in (t_i, t_f] — state
+    /// channels interpolated linearly between the step's ends (the schemes move positions
+    /// with the step's mean velocity), so outputs land on the requested times whatever the
+    /// steps were — or the step's end when every step is recorded.
+    fn record_outputs(&mut self, t_i: f64) {
+        let mut row_f = Vec::with_capacity(self.channels.len());
+        self.channels
+            .sample(&self.system, &self.state, &self.totals, &mut row_f);
+        let t_f = self.state.t;
+        let row_i = std::mem::take(&mut self.last_row);
+        match self.settings.output_dt {
+            None => self.emit(t_f, row_f.clone()),
+            Some(out) => {
+                let t_end = self.settings.t_end;
+                let slack = 1e-9 * (t_f - t_i).max(1e-300);
+                loop {
+                    let t_o = (self.output_index as f64 * out).min(t_end);
+                    if t_o > t_f + slack {
+                        break;
+                    }
+                    let w = ((t_o - t_i) / (t_f - t_i)).clamp(0.0, 1.0);
+                    let row = row_i
+                        .iter()
+                        .zip(&row_f)
+                        .map(|(a, b)| a + (b - a) * w)
+                        .collect();
+                    self.emit(t_o, row);
+                    if t_o >= t_end {
+                        self.output_index = u64::MAX / 2;
+                        break;
+                    }
+                    self.output_index += 1;
+                }
+            }
+        }
+        self.last_row = row_f;
+    }
+
+    /// Adds a sample; its step channels are completed when the steps around it are known.
+    fn emit(&mut self, t: f64, row: Vec<f64>) {
         if self.channels.step_channels().is_empty() {
-            self.times.push(self.state.t);
+            self.times.push(t);
             self.values.extend_from_slice(&row);
         } else {
-            self.pending.push_back((self.state.t, row));
+            self.pending.push_back((t, row));
             self.finalize_pending(false);
         }
     }
@@ -356,38 +433,52 @@ impl Simulation {
         self.system.kinetic_energy(&self.state) + self.system.potential_energy(&self.state)
     }
 
+    /// Takes a converged step: energy bookkeeping, checks, the step's multipliers, and the
+    /// samples whose times it covers.
+    fn accept(&mut self, state: State, report: StepReport, h: f64) {
+        let t_i = self.state.t;
+        let e_i = self.energy();
+        let start_rates = self.node_rates();
+        self.state = state;
+        self.stats.steps += 1;
+        self.stats.dt_smallest = self.stats.dt_smallest.min(h);
+        self.stats.dt_largest = self.stats.dt_largest.max(h);
+        self.previous_step = Some((h, start_rates));
+        let e_f = self.energy();
+        let t = &mut self.totals;
+        t.drive_work += report.drive_work;
+        t.external_work += report.external_work;
+        t.damper_work += report.damper_work;
+        t.numerical_dissipation += report.numerical_dissipation;
+        for (w, dw) in t.per_drive_work.iter_mut().zip(report.drive_works.iter()) {
+            *w += dw;
+        }
+        let defect = e_f - e_i - report.drive_work - report.external_work - report.damper_work
+            + report.numerical_dissipation;
+        self.stats.max_energy_defect = self.stats.max_energy_defect.max(defect.abs());
+        self.stats.max_constraint_violation = self
+            .stats
+            .max_constraint_violation
+            .max(report.max_violation);
+        self.stats.max_constraint_work = self
+            .stats
+            .max_constraint_work
+            .max(report.constraint_work.abs());
+        self.push_step_values(t_i + 0.5 * h, &report);
+        self.last_report = Some(report);
+    }
+
+    /// Each node's velocity and material angular velocity.
+    fn node_rates(&self) -> Vec<(V3<f64>, V3<f64>)> {
+        self.state.nodes.iter().map(|n| (n.v, n.w)).collect()
+    }
+
     /// One step of `h`, retried as two halves (recursively) if Newton fails.
     fn advance_interval(&mut self, h: f64, depth: u32) -> Result<(), StepFailure> {
         self.follow_contacts();
-        let e_t_i = self.state.t;
-        let e_i = self.energy();
         match self.integrator.step(&self.system, &self.state, h) {
             Ok((state, report)) => {
-                self.state = state;
-                self.stats.steps += 1;
-                let e_f = self.energy();
-                let t = &mut self.totals;
-                t.drive_work += report.drive_work;
-                t.external_work += report.external_work;
-                t.damper_work += report.damper_work;
-                t.numerical_dissipation += report.numerical_dissipation;
-                for (w, dw) in t.per_drive_work.iter_mut().zip(report.drive_works.iter()) {
-                    *w += dw;
-                }
-                let defect =
-                    e_f - e_i - report.drive_work - report.external_work - report.damper_work
-                        + report.numerical_dissipation;
-                self.stats.max_energy_defect = self.stats.max_energy_defect.max(defect.abs());
-                self.stats.max_constraint_violation = self
-                    .stats
-                    .max_constraint_violation
-                    .max(report.max_violation);
-                self.stats.max_constraint_work = self
-                    .stats
-                    .max_constraint_work
-                    .max(report.constraint_work.abs());
-                self.push_step_values(e_t_i + 0.5 * h, &report);
-                self.last_report = Some(report);
+                self.accept(state, report, h);
                 Ok(())
             }
             Err(e) if e.retry && depth < self.settings.max_step_halvings => {
@@ -400,28 +491,115 @@ impl Simulation {
         }
     }
 
-    /// Advances with the fixed step up to `t_target` (not past `t_end`), recording samples.
+    /// The local error indicator of a converged step from the current state to `end` (e ≤ 1
+    /// meets the tolerance): the difference between the step's increments and a second-order
+    /// predictor from the previous step (`x_i + h v_i + ½h² a_i`, `a_i` the previous step's
+    /// mean acceleration; the same for the material rotation parameters), ~h³/6·x‴ — positions
+    /// relative to the model's size, rotations in radians, over the tolerance. The first step
+    /// has no previous one: its predictor is constant-velocity, a conservative O(h²) bound.
+    fn local_error(&self, end: &State, h: f64) -> f64 {
+        let mut worst = 0.0f64;
+        for (a, (ni, nf)) in self.state.nodes.iter().zip(&end.nodes).enumerate() {
+            let (acc, alpha) = match &self.previous_step {
+                Some((hp, rates)) => (
+                    (ni.v - rates[a].0).scale_f(1.0 / hp),
+                    (ni.w - rates[a].1).scale_f(1.0 / hp),
+                ),
+                None => (V3::zero(), V3::zero()),
+            };
+            let dx = nf.x - ni.x;
+            let dx_pred = ni.v.scale_f(h) + acc.scale_f(0.5 * h * h);
+            let r = crate::rotation::cayley_log(&ni.r.transpose().mul_m(&nf.r))
+                .unwrap_or_else(|_| V3([f64::INFINITY; 3]));
+            let r_pred = ni.w.scale_f(h) + alpha.scale_f(0.5 * h * h);
+            worst = worst
+                .max((dx - dx_pred).norm() / self.system.length_ref)
+                .max((r - r_pred).norm());
+        }
+        worst / self.settings.tolerance
+    }
+
+    /// One adaptive step: tried with the proposed size, rejected and retried smaller while its
+    /// error indicator exceeds 1 or Newton fails; the next size follows the indicator
+    /// (`h·min(grow, max(shrink, 0.9 e^(−1/3)))`, DESIGN 8.6).
+    fn adaptive_step(&mut self) -> Result<(), StepFailure> {
+        let set = &self.settings;
+        let (dt_min, dt_max) = (set.dt_min(), set.dt_max());
+        let (grow, shrink) = (set.max_growth, set.max_shrink);
+        let remaining = set.t_end - self.state.t;
+        let mut h = self.h_next.min(dt_max);
+        // Land on t_end, without leaving a sliver of a last step.
+        if h >= remaining || remaining < 1.25 * h {
+            h = if h >= remaining {
+                remaining
+            } else {
+                0.5 * remaining
+            };
+        }
+        loop {
+            self.follow_contacts();
+            match self.integrator.step(&self.system, &self.state, h) {
+                Ok((state, report)) => {
+                    let e = self.local_error(&state, h);
+                    let factor = if e > 0.0 {
+                        (0.9 * e.powf(-1.0 / 3.0)).clamp(shrink, grow)
+                    } else {
+                        grow
+                    };
+                    if e <= 1.0 {
+                        self.accept(state, report, h);
+                        self.h_next = (h * factor).clamp(dt_min, dt_max);
+                        return Ok(());
+                    }
+                    self.stats.rejected += 1;
+                    if h <= dt_min * (1.0 + 1e-12) {
+                        return Err(StepFailure {
+                            t: self.state.t,
+                            h,
+                            reason: format!("the error tolerance {:.1e} cannot be met even with the smallest step dt_min = {dt_min:.3e} s (error indicator {e:.2}); loosen `tolerance` or lower `dt_min`", self.settings.tolerance),
+                            retry: false,
+                            load_factor: None,
+                        });
+                    }
+                    h = (h * factor.min(0.9)).max(dt_min);
+                }
+                Err(e) if e.retry && h > dt_min * (1.0 + 1e-12) => {
+                    self.stats.rejected += 1;
+                    self.stats.halvings += 1;
+                    h = (0.25 * h).max(dt_min);
+                }
+                Err(e) => return Err(e),
+            }
+        }
+    }
+
+    /// Advances up to `t_target` (not past `t_end`), recording samples: fixed steps of `dt`
+    /// on the grid k·dt, or adaptive steps (which may end past `t_target`, never past t_end).
     pub fn advance_to(&mut self, t_target: f64) -> Result<(), StepFailure> {
         let dt = self.settings.dt;
         let t_end = self.settings.t_end;
         let target = t_target.min(t_end);
+        let adaptive = self.settings.step_control == StepControl::Adaptive;
         while self.state.t < target - 1e-9 * dt {
-            // Land exactly on t_end; otherwise steps are k·dt from 0 to avoid drift in t.
-            let next = ((self.step_index + 1) as f64 * dt).min(t_end);
-            let h = next - self.state.t;
-            if let Err(e) = self.advance_interval(h, 0) {
+            let t_i = self.state.t;
+            let result = if adaptive {
+                self.adaptive_step()
+            } else {
+                // Land exactly on t_end; otherwise steps are k·dt from 0 to avoid drift in t.
+                let next = ((self.step_index + 1) as f64 * dt).min(t_end);
+                let h = next - self.state.t;
+                self.advance_interval(h, 0).map(|()| {
+                    self.state.t = next;
+                })
+            };
+            if let Err(e) = result {
                 // Keep every completed step: complete the pending samples and stop.
                 self.finalize_pending(true);
                 self.update_stats();
                 return Err(e);
             }
-            self.state.t = next;
             self.step_index += 1;
-            if self.step_index % self.output_every == 0
-                || (next - t_end).abs() < 1e-12 * t_end.max(1.0)
-            {
-                self.record();
-            }
+            self.record_outputs(t_i);
         }
         if self.done() {
             self.finalize_pending(true);

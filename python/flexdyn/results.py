@@ -98,6 +98,8 @@ def simulate(
     scheme: str | None = None,
     output_dt: float | None = None,
     newton_tol: float | None = None,
+    step_control: str | None = None,
+    tolerance: float | None = None,
     out: str | Path | None = None,
     progress: bool = False,
     on_chunk=None,
@@ -106,7 +108,8 @@ def simulate(
     xarray.Dataset with a `time` coordinate; with `out`, streams them to that NetCDF file.
     A model whose `simulation.analysis` is `static` is solved as by `solve_static`.
 
-    Keyword arguments override the model's `simulation` settings. With `out`, samples go to
+    Keyword arguments override the model's `simulation` settings (`step_control="adaptive"`
+    with a `tolerance` chooses the steps; `output_dt` records at exactly k·output_dt). With `out`, samples go to
     disk chunk by chunk and are not kept in memory: the returned dataset reads the file
     lazily, so memory stays flat however long the run. `on_chunk(times, values)` is called
     for every chunk (live plots, custom sinks). If a step cannot be completed, SolverError is
@@ -114,7 +117,15 @@ def simulate(
     exception as `.results`.
     """
     data = model_data(model)
-    overrides = {"t_end": t_end, "dt": dt, "scheme": scheme, "output_dt": output_dt, "newton_tol": newton_tol}
+    overrides = {
+        "t_end": t_end,
+        "dt": dt,
+        "scheme": scheme,
+        "output_dt": output_dt,
+        "newton_tol": newton_tol,
+        "step_control": step_control,
+        "tolerance": tolerance,
+    }
     data["simulation"].update({k: v for k, v in overrides.items() if v is not None})
     sim = _core.Simulation(json.dumps(data))
     names, units = sim.channel_names, sim.channel_units

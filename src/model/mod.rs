@@ -886,7 +886,8 @@ pub struct SimulationSettings {
     /// Time step, s.
     #[serde(default = "default_dt")]
     pub dt: f64,
-    /// Interval between recorded samples, s (defaults to `dt`). Must be a multiple of `dt`.
+    /// Interval between recorded samples, s: outputs land exactly on k·output_dt whatever the
+    /// steps (state channels interpolated within a step). Default: every step.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output_dt: Option<f64>,
     /// How many times a step whose Newton iteration fails is halved before the run stops.
@@ -897,6 +898,52 @@ pub struct SimulationSettings {
     pub newton_tol: f64,
     #[serde(default = "default_max_iter")]
     pub max_newton_iterations: u32,
+    /// `fixed` steps of `dt`, or `adaptive` steps (`dt` is the first) chosen by a local error
+    /// indicator against `tolerance`.
+    #[serde(default)]
+    pub step_control: StepControl,
+    /// Adaptive stepping: the largest local error per step, relative to the model's size for
+    /// positions and in radians for rotations.
+    #[serde(default = "default_tolerance")]
+    pub tolerance: f64,
+    /// Adaptive stepping: bounds on the step, s (defaults: dt·1e-6, and t_end/10 or dt if larger).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dt_min: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dt_max: Option<f64>,
+    /// Adaptive stepping: the most a step may grow over the previous one, and shrink.
+    #[serde(default = "default_max_growth")]
+    pub max_growth: f64,
+    #[serde(default = "default_max_shrink")]
+    pub max_shrink: f64,
+}
+
+/// How the time step is chosen.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum StepControl {
+    #[default]
+    Fixed,
+    Adaptive,
+}
+
+impl SimulationSettings {
+    pub fn dt_min(&self) -> f64 {
+        self.dt_min.unwrap_or(1e-6 * self.dt)
+    }
+    pub fn dt_max(&self) -> f64 {
+        self.dt_max.unwrap_or((0.1 * self.t_end).max(self.dt))
+    }
+}
+
+fn default_tolerance() -> f64 {
+    1e-6
+}
+fn default_max_growth() -> f64 {
+    2.0
+}
+fn default_max_shrink() -> f64 {
+    0.2
 }
 
 fn default_load_steps() -> u32 {
@@ -930,6 +977,12 @@ impl Default for SimulationSettings {
             max_step_halvings: default_max_halvings(),
             newton_tol: default_newton_tol(),
             max_newton_iterations: default_max_iter(),
+            step_control: StepControl::default(),
+            tolerance: default_tolerance(),
+            dt_min: None,
+            dt_max: None,
+            max_growth: default_max_growth(),
+            max_shrink: default_max_shrink(),
         }
     }
 }

@@ -665,14 +665,42 @@ impl Model {
         }
         if !(s.dt.is_finite() && s.dt > 0.0) {
             c.err("simulation.dt", format!("must be positive (got {})", s.dt));
-        } else if let Some(o) = s.output_dt {
-            let k = (o / s.dt).round();
-            if !(o.is_finite() && o > 0.0) || k < 1.0 || (o - k * s.dt).abs() > 1e-9 * o {
+        }
+        if let Some(o) = s.output_dt {
+            if !(o.is_finite() && o > 0.0) {
                 c.err(
                     "simulation.output_dt",
-                    format!("must be a positive multiple of dt = {} (got {o})", s.dt),
+                    format!("must be a positive interval in s (got {o})"),
                 );
             }
+        }
+        if !(s.tolerance.is_finite() && s.tolerance > 0.0 && s.tolerance < 1.0) {
+            c.err(
+                "simulation.tolerance",
+                format!("must be between 0 and 1 (got {})", s.tolerance),
+            );
+        }
+        let (lo, hi) = (s.dt_min(), s.dt_max());
+        if !(lo.is_finite() && lo > 0.0 && hi.is_finite() && lo <= s.dt && s.dt <= hi) {
+            c.err(
+                "simulation.dt_min",
+                format!(
+                    "need 0 < dt_min ≤ dt ≤ dt_max (got dt_min = {lo}, dt = {}, dt_max = {hi})",
+                    s.dt
+                ),
+            );
+        }
+        if !(s.max_growth > 1.0 && s.max_growth.is_finite()) {
+            c.err(
+                "simulation.max_growth",
+                format!("must be greater than 1 (got {})", s.max_growth),
+            );
+        }
+        if !(s.max_shrink > 0.0 && s.max_shrink < 1.0) {
+            c.err(
+                "simulation.max_shrink",
+                format!("must be between 0 and 1 (got {})", s.max_shrink),
+            );
         }
         if !(s.newton_tol.is_finite() && s.newton_tol > 0.0 && s.newton_tol < 1.0) {
             c.err("simulation.newton_tol", "must be between 0 and 1");
