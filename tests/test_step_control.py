@@ -1,0 +1,99 @@
+"""Adaptive time stepping and outputs at requested times (issue 6): a local error indicator
+against a tolerance chooses the steps; outputs land on k·output_dt whatever the steps."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import flexdyn as fd
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def heavy_top(**settings):
+    m = fd.load(ROOT / "examples" / "heavy_top.yaml")
+    m.settings(**{**m.data["simulation"], "t_end": 0.5, **settings})
+    return m
+
+
+def cm(res):
+    return np.stack([res[f"cm.{c}"].values for c in "xyz"], axis=1)
+
+
+@pytest.fixture(scope="module")
+def reference():
+    """The heavy top with a tiny fixed step (error ~ (ωh)²/12 ≈ 1e-6 of its own motion)."""
+    return cm(fd.simulate(heavy_top(dt=2.5e-5, output_dt=0.01)))
+
+
+def test_outputs_land_on_requested_times_and_agree_with_steps_landing_there(reference):
+    # Steps of 4e-4 s, outputs every 1e-3 s: half the outputs fall inside a step.
+    res = fd.simulate(heavy_top(dt=4e-4, output_dt=1e-3))
+    t = res["time"].values
+    np.testing.assert_allclose(t, np.arange(len(t)) * 1e-3, atol=1e-15)
+    assert t[-1] == pytest.approx(0.5)
+    # Against a run whose steps land on every output (2e-4 s): interpolation adds an O(h²)
+    # error no larger than the scheme's own (the runs differ by their step's error, ~(ωh)²).
+    landing = fd.simulate(heavy_top(dt=2e-4, output_dt=1e-3))
+    on_grid = np.isclose((t / 4e-4) % 1, 0) | np.isclose((t / 4e-4) % 1, 1)
+    diff = np.linalg.norm(cm(res) - cm(landing), axis=1)
+    assert diff[~on_grid].max() < 3 * diff[on_grid].max()
+    # Multiplier channels are interpolated likewise.
+    assert np.all(np.isfinite(res["pivot_force.Fz"].values))
+
+
+@pytest.mark.parametrize("scheme", ["ep", "ed"])
+def test_tightening_the_tolerance_reduces_the_error_consistently(reference, scheme):
+    errors, steps = [], []
+    for tol in (1e-5, 1e-6, 1e-7):
+        res = fd.simulate(heavy_top(scheme=scheme, step_control="adaptive", tolerance=tol, output_dt=0.01))
+        errors.append(np.abs(cm(res) - reference).max())
+        steps.append(res.attrs["stats"]["steps"])
+    # Local error ~ h³ = tol, global ~ h² ∝ tol^(2/3): ×4.6 per decade; steps ∝ tol^(−1/3): ×2.2.
+    for k in range(2):
+        assert 2.5 < errors[k] / errors[k + 1] < 10, errors
+        assert 1.6 < steps[k + 1] / steps[k] < 3.2, steps
+
+
+def jerked_pendulum():
+    """A pendulum hanging from a slider that is at rest until t = 0.5 s and then moves at
+    1 m/s: its pivot's velocity jumps."""
+    m = fd.Model("jerked pendulum", gravity=[0, 0, -9.81])
+    m.node("pivot", [0, 0, 0]).node("bob", [0, 0, -1.0])
+    m.rigid_body("pivot_mass", "pivot", mass=1.0, inertia=[0.01, 0.01, 0.01])
+    m.rigid_body("bob_mass", "bob", mass=2.0, inertia=[0.01, 0.01, 0.01])
+    m.prismatic(
+        "rail", "ground", "pivot", axis=[1, 0, 0], drive={"t": [0.0, 0.5, 1.0], "value": [0.0, 0.0, 0.5]}
+    )
+    m.revolute("hinge", "pivot", "bob", axis=[0, 1, 0], position=[0, 0, 0])
+    m.sensor("joint_coordinate", "swing", joint="hinge")
+    m.settings(t_end=1.0, dt=1e-3, scheme="ed", step_control="adaptive", tolerance=1e-6)
+    return m
+
+
+def test_a_sudden_event_shrinks_the_step_which_then_grows_back():
+    res = fd.simulate(jerked_pendulum())
+    stats = res.attrs["stats"]
+    t = res["time"].values  # every step is recorded
+    h = np.diff(t)
+    before = h[(t[1:] > 0.2) & (t[1:] < 0.43)]
+    at = h[(t[1:] > 0.49) & (t[1:] < 0.51)]
+    after = h[t[1:] > 0.8]
+    # At rest the step grows to its limit; the jump forces tiny steps (and rejections); the
+    # swinging pendulum afterwards lets them grow back to a size set by its motion.
+    assert before.min() == pytest.approx(0.1, rel=1e-9)  # dt_max = t_end/10
+    assert at.min() < 1e-3 * before.min()
+    assert stats["rejected"] > 0
+    assert after.min() > 100 * at.min()
+    assert stats["dt_smallest"] == pytest.approx(h.min(), rel=1e-6)
+    # The pendulum does swing: it starts with the pivot's jump (a kick of ω = v/L).
+    assert np.abs(res["swing.phi"].values).max() > 0.05
+
+
+def test_adaptive_settings_are_checked():
+    m = jerked_pendulum()
+    m.settings(**{**m.data["simulation"], "tolerance": 0.0, "max_shrink": 2.0})
+    with pytest.raises(fd.ModelError) as e:
+        fd.simulate(m)
+    assert "simulation.tolerance" in str(e.value) and "simulation.max_shrink" in str(e.value)
