@@ -19,6 +19,8 @@ def _run(args) -> int:
             dt=args.dt,
             scheme=args.scheme,
             output_dt=args.output_dt,
+            step_control="adaptive" if args.tolerance is not None else None,
+            tolerance=args.tolerance,
             out=args.output,
             progress=not args.quiet and sys.stderr.isatty(),
         )
@@ -93,6 +95,7 @@ def main(argv=None) -> int:
     r.add_argument("--t-end", type=float)
     r.add_argument("--dt", type=float)
     r.add_argument("--output-dt", type=float)
+    r.add_argument("--tolerance", type=float, help="adaptive steps with this local error tolerance")
     r.add_argument("-q", "--quiet", action="store_true")
     r.set_defaults(func=_run)
     md = sub.add_parser("modes", help="natural frequencies about the static equilibrium")
