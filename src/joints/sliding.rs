@@ -1001,6 +1001,26 @@ mod tests {
         )
     }
 
+    /// The wavy beam of 5 elements of order p with ζ_i = zi, its layout and the joint.
+    fn case(
+        scheme: Scheme,
+        kind: SlidingKind,
+        p: usize,
+        zi: f64,
+        ground: bool,
+    ) -> (State, Layout, SlidingJoint) {
+        let mut state = setup(5, p);
+        state.coords[0] = zi;
+        let n_rows = ContactLaw {
+            kind,
+            at: attachments(),
+        }
+        .n_rows();
+        let layout = Layout::new(scheme, state.nodes.len(), 1, n_rows);
+        let j = joint(kind, 5, p, zi, ground, &layout);
+        (state, layout, j)
+    }
+
     /// Unknowns with large increments (rotations of tens of degrees) and the given Δζ.
     fn unknowns(layout: &Layout, dzeta: f64, seed: f64) -> Vec<f64> {
         let mut y: Vec<f64> = (0..layout.n_unknowns())
@@ -1028,15 +1048,8 @@ mod tests {
         for p in 1..=3 {
             for kind in KINDS {
                 for (zi, dz) in STEPS {
-                    let mut state = setup(5, p);
-                    state.coords[0] = zi;
-                    let n_rows = ContactLaw {
-                        kind,
-                        at: attachments(),
-                    }
-                    .n_rows();
-                    let layout = Layout::new(Scheme::Ep, state.nodes.len(), 1, n_rows);
-                    let j = joint(kind, 5, p, zi, false, &layout);
+                    let (state, layout, j) = case(Scheme::Ep, kind, p, zi, false);
+                    let n_rows = j.n_rows();
                     let y = unknowns(&layout, dz, 3.0);
                     let ctx = StepCtx {
                         layout,
@@ -1078,15 +1091,7 @@ mod tests {
                 for kind in KINDS {
                     for ground in [false, true] {
                         for (zi, dz) in STEPS {
-                            let mut state = setup(5, p);
-                            state.coords[0] = zi;
-                            let n_rows = ContactLaw {
-                                kind,
-                                at: attachments(),
-                            }
-                            .n_rows();
-                            let layout = Layout::new(scheme, state.nodes.len(), 1, n_rows);
-                            let j = joint(kind, 5, p, zi, ground, &layout);
+                            let (state, layout, j) = case(scheme, kind, p, zi, ground);
                             let y = unknowns(&layout, dz, 1.0);
                             let ctx = StepCtx {
                                 layout,
