@@ -116,6 +116,30 @@ impl Simulation {
         settings.scheme = scheme;
         let mut state = system.initial.clone();
         let mut warnings = Vec::new();
+        if !statics && settings.preload {
+            // Start from the static equilibrium under the loads and gravity at t = 0 (drives
+            // at their t = 0 values): the dynamic run then begins without the transient of a
+            // load appearing on an unloaded structure.
+            let mut static_model = model.clone();
+            static_model.simulation.analysis = Analysis::Static;
+            let mut pre = Simulation::with_scheme(&static_model, Scheme::Ep)?;
+            pre.solve_static().map_err(|e| {
+                SimError::Step(StepFailure {
+                    reason: format!(
+                        "the static pre-load (simulation.preload) found no equilibrium: {}",
+                        e.reason
+                    ),
+                    ..e
+                })
+            })?;
+            for (n, p) in state.nodes.iter_mut().zip(&pre.state.nodes) {
+                n.x = p.x;
+                n.r = p.r;
+            }
+            state.coords.clone_from(&pre.state.coords);
+            state.history.clone_from(&pre.state.history);
+            state.lambda.clone_from(&pre.state.lambda);
+        }
         let change = if statics {
             for n in &mut state.nodes {
                 n.v = V3::zero();

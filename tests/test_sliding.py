@@ -308,7 +308,7 @@ def test_end_stop_bounces_the_collar_back_elastically():
 
 
 def test_ed_contact_force_has_no_spikes_at_element_crossings():
-    # A 10 kg collar driven slowly along a cantilever under gravity crosses ten element
+    # A 10 kg collar driven slowly along a cantilever under gravity crosses 13 element
     # boundaries; the C0 path's kinks there must not show in the contact force: its second
     # difference near a crossing is no larger than elsewhere.
     m = fd.Model("slow slide", gravity=[0, -9.81, 0])
@@ -319,7 +319,8 @@ def test_ed_contact_force_has_no_spikes_at_element_crossings():
     m.sliding_joint("slider", "beam", "collar", eta=fd.drive("0.1 + 0.8*(t/2 - sin(pi*t)/pi)"))
     m.sensor("joint_reaction", "contact_force", joint="slider")
     m.sensor("joint_coordinate", "contact", joint="slider")
-    m.settings(t_end=2.0, dt=1e-3, scheme="ed")
+    # Statically loaded (the collar's weight on the beam) before the slide starts.
+    m.settings(t_end=2.0, dt=1e-3, scheme="ed", preload=True)
     res = fd.simulate(m)
     force = res["contact_force.F2"].values
     element = np.floor(res["contact.eta"].values * 12 + 1e-9)
@@ -329,8 +330,10 @@ def test_ed_contact_force_has_no_spikes_at_element_crossings():
     near = np.zeros(len(d2), dtype=bool)
     for k in crossings:
         near[max(k - 3, 0) : k + 2] = True
-    # The background is the beam's own ringing under the moving weight (~N/step²).
-    assert d2[near].max() <= 1.5 * d2[~near].max(), (d2[near].max(), d2[~near].max())
+    # Against the background of the beam's response to the moving weight (measured: 0.81 N
+    # near crossings, 99th percentile 0.73 N elsewhere; 30 N and 31 N without the pre-load).
+    background = np.percentile(d2[~near], 99)
+    assert d2[near].max() <= 1.5 * background, (d2[near].max(), background)
     # And the force is the collar's weight plus a modest dynamic part.
     assert np.median(np.abs(force)) == pytest.approx(98.1, rel=0.1)
 

@@ -97,3 +97,36 @@ def test_adaptive_settings_are_checked():
     with pytest.raises(fd.ModelError) as e:
         fd.simulate(m)
     assert "simulation.tolerance" in str(e.value) and "simulation.max_shrink" in str(e.value)
+
+
+def hanging_cantilever(preload):
+    section = {
+        "ea": 44e6,
+        "ga2": 2.8e6,
+        "ga3": 14e6,
+        "gj": 28e3,
+        "ei2": 300e3,
+        "ei3": 23e3,
+        "m": 1.6,
+        "i22": 1e-3,
+        "i33": 11e-3,
+    }
+    m = fd.Model("cantilever under gravity", gravity=[0, -9.81, 0])
+    m.node("tip", [2.4, 0, 0]).rigid_body("tip_body", "tip", mass=40.0, inertia=[0.45, 0.225, 0.225])
+    m.beam("beam", [0, 0, 0], end_node="tip", elements=6, section=section, e2=[0, 1, 0])
+    m.clamp("root", "ground", "beam.0")
+    m.sensor("node_displacement", "tip_u", node="tip")
+    m.settings(t_end=0.5, dt=1e-3, scheme="ed", preload=preload)
+    return m
+
+
+def test_static_preload_starts_the_dynamic_run_at_rest_in_equilibrium():
+    # Without the pre-load the tip, released unloaded, swings about its static deflection
+    # with that amplitude; with it the run starts (and stays) at the equilibrium.
+    free = fd.simulate(hanging_cantilever(False))["tip_u.y"].values
+    preloaded = fd.simulate(hanging_cantilever(True))["tip_u.y"].values
+    static = fd.solve_static(hanging_cantilever(False).settings(analysis="static"))["tip_u.y"].values[-1]
+    assert static < -1e-3
+    assert np.ptp(free) > 1.5 * abs(static)
+    assert preloaded[0] == pytest.approx(static, rel=1e-9)
+    assert np.ptp(preloaded) < 1e-6 * abs(static)

@@ -911,6 +911,10 @@ pub struct SimulationSettings {
     pub dt_min: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dt_max: Option<f64>,
+    /// Dynamic analysis: start from the static equilibrium under the loads and gravity at
+    /// t = 0 (solved with `load_steps`), with the given velocities made consistent there.
+    #[serde(default)]
+    pub preload: bool,
     /// Adaptive stepping: the most a step may grow over the previous one, and shrink.
     #[serde(default = "default_max_growth")]
     pub max_growth: f64,
@@ -979,6 +983,7 @@ impl Default for SimulationSettings {
             max_newton_iterations: default_max_iter(),
             step_control: StepControl::default(),
             tolerance: default_tolerance(),
+            preload: false,
             dt_min: None,
             dt_max: None,
             max_growth: default_max_growth(),
