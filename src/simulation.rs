@@ -31,6 +31,8 @@ pub struct RunStats {
     pub pattern_rebuilds: usize,
     /// Adaptive stepping: steps rejected (error too large, or Newton failed) and retried.
     pub rejected: usize,
+    /// Linear solves (Newton updates); with modified Newton more than factorizations.
+    pub linear_solves: usize,
     /// Smallest and largest step taken, s.
     pub dt_smallest: f64,
     pub dt_largest: f64,
@@ -50,6 +52,7 @@ impl Default for RunStats {
             pattern_misses: 0,
             pattern_rebuilds: 0,
             rejected: 0,
+            linear_solves: 0,
             dt_smallest: f64::INFINITY,
             dt_largest: 0.0,
         }
@@ -635,6 +638,7 @@ impl Simulation {
     fn update_stats(&mut self) {
         self.stats.newton_iterations = self.integrator.total_iterations;
         self.stats.factorizations = self.integrator.matrix.numeric_factorizations;
+        self.stats.linear_solves = self.integrator.solves;
         self.stats.orderings = self.integrator.matrix.orderings;
         self.stats.pattern_misses = self.integrator.pattern_misses;
         self.stats.pattern_rebuilds = self.integrator.pattern_rebuilds;

@@ -364,7 +364,7 @@ class Model:
         """Simulation settings: analysis ("dynamic"/"static"), load_steps, scheme ("ep"/"ed"),
         t_end, dt, output_dt, newton_tol, max_newton_iterations, max_step_halvings;
         step_control ("fixed"/"adaptive"), tolerance, dt_min, dt_max, max_growth, max_shrink;
-        preload (start a dynamic run from the static equilibrium at t = 0)."""
+        preload (start a dynamic run from the static equilibrium at t = 0), modified_newton."""
         self.data["simulation"].update(fields)
         return self
 

@@ -84,6 +84,15 @@ pub struct Integrator {
     pub pattern_misses: usize,
     /// Times the pattern was rebuilt (sliding contact points entering new elements).
     pub pattern_rebuilds: usize,
+    /// Modified Newton: reuse the LU factors while the residual falls fast (4× per
+    /// iteration), across steps of the same size too.
+    pub modified_newton: bool,
+    /// The step size the current LU factors were computed for (None: no valid factors).
+    factored_for: Option<f64>,
+    /// Whether the last step converged, so its factors may start the next one.
+    last_converged: bool,
+    /// Linear solves (one per Newton update).
+    pub solves: usize,
 }
 
 impl Integrator {
@@ -91,6 +100,7 @@ impl Integrator {
         let mut integ = Self::with_pattern(sys, settings.dt);
         integ.tol = settings.newton_tol;
         integ.max_iter = settings.max_newton_iterations as usize;
+        integ.modified_newton = settings.modified_newton;
         integ
     }
 
@@ -103,6 +113,8 @@ impl Integrator {
         fresh.total_iterations = self.total_iterations;
         fresh.pattern_misses = self.pattern_misses;
         fresh.pattern_rebuilds = self.pattern_rebuilds + 1;
+        fresh.modified_newton = self.modified_newton;
+        fresh.solves = self.solves;
         fresh.matrix.numeric_factorizations += self.matrix.numeric_factorizations;
         fresh.matrix.orderings += self.matrix.orderings;
         *self = fresh;
@@ -144,6 +156,10 @@ impl Integrator {
             total_iterations: 0,
             pattern_misses: 0,
             pattern_rebuilds: 0,
+            modified_newton: false,
+            factored_for: None,
+            last_converged: false,
+            solves: 0,
         }
     }
 
@@ -253,7 +269,9 @@ impl Integrator {
 
     /// Factors the assembled tangent (symbolic analysis reused) and applies the Newton update.
     fn solve_update(&mut self) -> Result<(), String> {
+        self.factored_for = None;
         self.matrix.factor()?;
+        self.solves += 1;
         self.matrix.solve(&mut self.res);
         for (y, d) in self.y.iter_mut().zip(self.res.iter()) {
             *y -= d;
@@ -432,8 +450,21 @@ impl Integrator {
         let mut report = StepReport::default();
         let mut f_ref = 0.0;
         let mut clamped: Option<&str> = None;
+        let converged_before = std::mem::replace(&mut self.last_converged, false);
+        let factors_fit = self.modified_newton && !ctx.is_static();
         for it in 0..=self.max_iter {
-            self.assemble(sys, ctx, true);
+            // Modified Newton: keep the factors (valid for this h) while the residual falls
+            // fast — from the previous step's if it converged, then while each update cuts
+            // the residual 4×; else assemble the tangent and factor afresh.
+            let fast = match it {
+                0 => converged_before,
+                _ => {
+                    let r = &report.residuals;
+                    r.len() >= 2 && r[r.len() - 1] < 0.25 * r[r.len() - 2]
+                }
+            };
+            let reuse = factors_fit && fast && self.factored_for == Some(ctx.h);
+            self.assemble(sys, ctx, !reuse);
             if ctx.is_static() {
                 self.regularize_static(sys, ctx);
             }
@@ -469,7 +500,16 @@ impl Integrator {
                     sys.describe_row(worst)
                 )));
             }
-            self.solve_update().map_err(fail)?;
+            if reuse {
+                self.matrix.solve(&mut self.res);
+                self.solves += 1;
+                for (y, d) in self.y.iter_mut().zip(self.res.iter()) {
+                    *y -= d;
+                }
+            } else {
+                self.solve_update().map_err(fail)?;
+                self.factored_for = Some(ctx.h);
+            }
             clamped = self.keep_contacts_in_windows(sys, ctx);
             if let Some(bad) = self.y.iter().position(|v| !v.is_finite()) {
                 // Singular whatever the step: an unconstrained massless motion, or a mechanism
@@ -504,6 +544,7 @@ impl Integrator {
         }
         self.total_iterations += report.iterations;
         self.check_contacts_on_beams(sys, ctx)?;
+        self.last_converged = true;
         Ok(report)
     }
 

@@ -898,6 +898,10 @@ pub struct SimulationSettings {
     pub newton_tol: f64,
     #[serde(default = "default_max_iter")]
     pub max_newton_iterations: u32,
+    /// Modified Newton: reuse the LU factors (across steps of the same size too) while the
+    /// residual falls fast, refactoring as soon as it does not.
+    #[serde(default)]
+    pub modified_newton: bool,
     /// `fixed` steps of `dt`, or `adaptive` steps (`dt` is the first) chosen by a local error
     /// indicator against `tolerance`.
     #[serde(default)]
@@ -981,6 +985,7 @@ impl Default for SimulationSettings {
             max_step_halvings: default_max_halvings(),
             newton_tol: default_newton_tol(),
             max_newton_iterations: default_max_iter(),
+            modified_newton: false,
             step_control: StepControl::default(),
             tolerance: default_tolerance(),
             preload: false,
