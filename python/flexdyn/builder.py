@@ -329,6 +329,14 @@ class Model:
         self.data["joints"].append(fields)
         return self
 
+    def initial_spin(self, items, axis, rate, center=(0.0, 0.0, 0.0)):
+        """Start the listed nodes and beams (all their nodes) turning together at `rate` rad/s
+        about `axis` through `center`: v = ω × (x − center), angular velocity ω."""
+        self.data.setdefault("initial_spins", []).append(
+            {"axis": _vec(axis), "rate": float(rate), "center": _vec(center), "items": list(items)}
+        )
+        return self
+
     def force(self, name, node, value, scale=None, follower=False):
         """Point force, N, times an optional function of time: dead (inertial frame) or, with
         follower=True, given in the node's triad and turning with it."""

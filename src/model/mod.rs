@@ -41,8 +41,27 @@ pub struct Model {
     pub loads: Vec<Load>,
     #[serde(default)]
     pub sensors: Vec<Sensor>,
+    /// Initial rigid-body spins of groups of items (a rotor turning from t = 0).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub initial_spins: Vec<InitialSpin>,
     #[serde(default)]
     pub simulation: SimulationSettings,
+}
+
+/// Starts the listed nodes and beams (all their nodes) turning together about an axis: each
+/// node gets `v = ω × (x − center)` and angular velocity ω (replacing what it was given).
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct InitialSpin {
+    /// Unit vector of the spin axis, inertial frame.
+    pub axis: Vec3,
+    /// Spin rate, rad/s (right-handed about `axis`).
+    pub rate: f64,
+    /// A point of the axis, m (default: the origin).
+    #[serde(default)]
+    pub center: Vec3,
+    /// Names of nodes and beams that spin.
+    pub items: Vec<String>,
 }
 
 /// A node: a point with a triad, the carrier of 3 displacement and 3 rotation unknowns.

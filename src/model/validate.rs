@@ -656,6 +656,32 @@ impl Model {
             }
         }
 
+        for (i, spin) in self.initial_spins.iter().enumerate() {
+            let p = format!("initial_spins[{i}]");
+            c.unit(format!("{p}.axis"), &spin.axis, "axis");
+            c.vec3(format!("{p}.center"), &spin.center);
+            if !spin.rate.is_finite() {
+                c.err(format!("{p}.rate"), "must be a finite number of rad/s");
+            }
+            if spin.items.is_empty() {
+                c.err(format!("{p}.items"), "name the nodes and beams that spin");
+            }
+            for (k, item) in spin.items.iter().enumerate() {
+                let beam_node = item.rsplit_once('.').is_some_and(|(b, n)| {
+                    n.parse::<usize>().is_ok() && self.beams.iter().any(|x| x.name == b)
+                });
+                if !node_names.contains_key(item.as_str())
+                    && !self.beams.iter().any(|b| &b.name == item)
+                    && !beam_node
+                {
+                    c.err(
+                        format!("{p}.items[{k}]"),
+                        format!("`{item}` is neither a node nor a beam of the model"),
+                    );
+                }
+            }
+        }
+
         let s = &self.simulation;
         if !(s.t_end.is_finite() && s.t_end > 0.0) {
             c.err(

@@ -225,6 +225,25 @@ impl System {
                     .collect(),
             );
         }
+        // Initial spins: the listed nodes and beams turn rigidly about their axis.
+        for spin in &model.initial_spins {
+            let axis = V3(spin.axis);
+            let omega = axis.scale_f(spin.rate / axis.norm());
+            let center = V3(spin.center);
+            let mut targets: Vec<usize> = Vec::new();
+            for item in &spin.items {
+                match model.beams.iter().position(|b| &b.name == item) {
+                    Some(bi) => targets.extend(&beam_meshes[bi].nodes),
+                    None => targets.extend(node_names.iter().position(|n| n == item)),
+                }
+            }
+            for a in targets {
+                let n = &mut nodes[a];
+                n.v = omega.cross(&(n.x - center));
+                n.w = n.r.tmul_v(&omega);
+                velocity_given[a] = true;
+            }
+        }
         let beam_mesh::Lumped {
             mut mass,
             first_moment,
