@@ -347,10 +347,7 @@ impl Channels {
                     match *k {
                         0 => sl.arc.eta(z),
                         1 => state.coord_rates[sl.coord] * sl.arc.deta_dzeta(z),
-                        2 => {
-                            let info = sys.beam_info.iter().find(|b| b.nodes == sl.beam_nodes);
-                            sl.arc.eta(z) * info.map_or(f64::NAN, |b| b.length)
-                        }
+                        2 => sl.arc.eta(z) * sys.beam_info[sl.beam].length,
                         _ => sl.contact(state, z).0 .0[k - 3],
                     }
                 }

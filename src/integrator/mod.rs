@@ -575,11 +575,7 @@ impl Integrator {
             // (the end element extends); half an element means the stop is far too soft.
             let slack = if sl.end_stops { 0.5 } else { 1e-9 };
             if !(-slack..=n + slack).contains(&z) {
-                let beam = sys
-                    .beam_info
-                    .iter()
-                    .find(|b| b.nodes == sl.beam_nodes)
-                    .map_or("its beam", |b| b.name.as_str());
+                let beam = &sys.beam_info[sl.beam].name;
                 let end = if z < 0.0 {
                     "first end (η = 0)"
                 } else {

@@ -115,7 +115,8 @@ pub struct SlidingJoint {
     /// Global index of ζ among the coordinates.
     pub coord: usize,
     pub row0: usize,
-    /// The user's η = s/L against ζ (for outputs).
+    /// The beam (index in `System::beam_info`), and the user's η = s/L against ζ.
+    pub beam: usize,
     pub arc: ArcMap,
     /// Elastic stops at the ends: the contact point may run slightly past them.
     pub end_stops: bool,
@@ -285,6 +286,7 @@ impl SlidingJoint {
             follower,
             coord,
             row0,
+            beam: 0,
             arc: ArcMap::uniform(elements),
             end_stops: false,
             window: (usize::MAX, 0),

@@ -428,10 +428,11 @@ impl System {
                     model::Joint::SlidingClamp(_) => SlidingKind::Clamp,
                     _ => SlidingKind::Point,
                 };
-                let info = beam_info
+                let beam_index = beam_info
                     .iter()
-                    .find(|b| b.name == sl.beam)
+                    .position(|b| b.name == sl.beam)
                     .expect("validated");
+                let info = &beam_info[beam_index];
                 let beam_path = BeamPath::new(info.count, info.order);
                 let map = ArcMap::new(&info.spans, info.length);
                 let drive = sl
@@ -520,6 +521,7 @@ impl System {
                     &layout,
                     zeta0,
                 );
+                kernel.beam = beam_index;
                 kernel.arc = map;
                 kernel.end_stops = sl.end_stops.is_some();
                 joints.push(Joint::Sliding(kernel));
