@@ -206,6 +206,7 @@ impl PySimulation {
         d.set_item("steps", s.steps)?;
         d.set_item("halvings", s.halvings)?;
         d.set_item("rejected", s.rejected)?;
+        d.set_item("over_tolerance", s.over_tolerance)?;
         d.set_item("linear_solves", s.linear_solves)?;
         d.set_item("dt_smallest", s.dt_smallest)?;
         d.set_item("dt_largest", s.dt_largest)?;

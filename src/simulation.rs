@@ -12,6 +12,13 @@ use crate::system::sparse::NewtonMatrix;
 use crate::system::System;
 use crate::vec3::V3;
 
+/// One step's size and the mean velocity and spatial angular velocity of each node carrying
+/// inertia (in `System::inertias` order).
+struct StepMeans {
+    h: f64,
+    means: Vec<(V3<f64>, V3<f64>)>,
+}
+
 #[derive(Clone, Debug)]
 pub struct RunStats {
     pub steps: usize,
@@ -31,6 +38,9 @@ pub struct RunStats {
     pub pattern_rebuilds: usize,
     /// Adaptive stepping: steps rejected (error too large, or Newton failed) and retried.
     pub rejected: usize,
+    /// Adaptive stepping: steps taken above the tolerance because a shorter one would not
+    /// lower the error — an event such as a velocity jump, which no step resolves.
+    pub over_tolerance: usize,
     /// Linear solves (Newton updates); with modified Newton more than factorizations.
     pub linear_solves: usize,
     /// Smallest and largest step taken, s.
@@ -52,6 +62,7 @@ impl Default for RunStats {
             pattern_misses: 0,
             pattern_rebuilds: 0,
             rejected: 0,
+            over_tolerance: 0,
             linear_solves: 0,
             dt_smallest: f64::INFINITY,
             dt_largest: 0.0,
@@ -96,10 +107,15 @@ pub struct Simulation {
     output_index: u64,
     /// State channels at the current state (the start of the next step).
     last_row: Vec<f64>,
-    /// Adaptive stepping: the size proposed for the next step; the previous step's size and
-    /// its start velocities (for the error predictor).
+    /// Adaptive stepping: the size proposed for the next step; the last two steps' sizes and
+    /// mean velocities (for EP's error estimate), latest last.
     h_next: f64,
-    previous_step: Option<(f64, Vec<(V3<f64>, V3<f64>)>)>,
+    recent_means: std::collections::VecDeque<StepMeans>,
+    /// Adaptive stepping: the last trial's (h, e) and the indicator's observed order in h.
+    last_trial: Option<(f64, f64)>,
+    error_order: f64,
+    /// The largest kinetic + strain + spring energy so far: the error indicator's scale.
+    energy_scale: f64,
     /// Static analysis: the load factor of the current state.
     load_factor: f64,
 }
@@ -196,10 +212,14 @@ impl Simulation {
             output_index: 1,
             last_row: vec![],
             h_next: 0.0,
-            previous_step: None,
+            recent_means: Default::default(),
+            last_trial: None,
+            error_order: 2.0,
+            energy_scale: 0.0,
             load_factor: 0.0,
         };
         sim.h_next = sim.settings.dt;
+        sim.energy_scale = sim.system.motion_energy(&sim.state);
         if statics {
             // The unloaded state, with no reactions yet.
             let mut row = Vec::with_capacity(sim.channels.len());
@@ -465,13 +485,21 @@ impl Simulation {
     fn accept(&mut self, state: State, report: StepReport, h: f64) {
         let t_i = self.state.t;
         let e_i = self.energy();
-        let start_rates = self.node_rates();
+        if self.settings.step_control == StepControl::Adaptive {
+            let means = self.step_means(&state, h);
+            if self.recent_means.len() == 2 {
+                self.recent_means.pop_front();
+            }
+            self.recent_means.push_back(means);
+        }
         self.state = state;
         self.stats.steps += 1;
         self.stats.dt_smallest = self.stats.dt_smallest.min(h);
         self.stats.dt_largest = self.stats.dt_largest.max(h);
-        self.previous_step = Some((h, start_rates));
         let e_f = self.energy();
+        self.energy_scale = self
+            .energy_scale
+            .max(self.system.motion_energy(&self.state));
         let t = &mut self.totals;
         t.drive_work += report.drive_work;
         t.external_work += report.external_work;
@@ -495,11 +523,6 @@ impl Simulation {
         self.last_report = Some(report);
     }
 
-    /// Each node's velocity and material angular velocity.
-    fn node_rates(&self) -> Vec<(V3<f64>, V3<f64>)> {
-        self.state.nodes.iter().map(|n| (n.v, n.w)).collect()
-    }
-
     /// One step of `h`, retried as two halves (recursively) if Newton fails.
     fn advance_interval(&mut self, h: f64, depth: u32) -> Result<(), StepFailure> {
         self.follow_contacts();
@@ -519,36 +542,115 @@ impl Simulation {
     }
 
     /// The local error indicator of a converged step from the current state to `end` (e ≤ 1
-    /// meets the tolerance): the difference between the step's increments and a second-order
-    /// predictor from the previous step (`x_i + h v_i + ½h² a_i`, `a_i` the previous step's
-    /// mean acceleration; the same for the material rotation parameters), ~h³/6·x‴ — positions
-    /// relative to the model's size, rotations in radians, over the tolerance. The first step
-    /// has no previous one: its predictor is constant-velocity, a conservative O(h²) bound.
-    fn local_error(&self, end: &State, h: f64) -> f64 {
-        let mut worst = 0.0f64;
-        for (a, (ni, nf)) in self.state.nodes.iter().zip(&end.nodes).enumerate() {
-            let (acc, alpha) = match &self.previous_step {
-                Some((hp, rates)) => (
-                    (ni.v - rates[a].0).scale_f(1.0 / hp),
-                    (ni.w - rates[a].1).scale_f(1.0 / hp),
-                ),
-                None => (V3::zero(), V3::zero()),
-            };
-            let dx = nf.x - ni.x;
-            let dx_pred = ni.v.scale_f(h) + acc.scale_f(0.5 * h * h);
-            let r = crate::rotation::cayley_log(&ni.r.transpose().mul_m(&nf.r))
-                .unwrap_or_else(|_| V3([f64::INFINITY; 3]));
-            let r_pred = ni.w.scale_f(h) + alpha.scale_f(0.5 * h * h);
-            worst = worst
-                .max((dx - dx_pred).norm() / self.system.length_ref)
-                .max((r - r_pred).norm());
+    /// meets the tolerance): error energies of the step relative to the motion's energy scale
+    /// (the largest kinetic + strain + spring energy so far), `e = √(E_err/E)/tol` — relative
+    /// velocity errors, O(h²) for smooth motion, like the global error, so errors follow the
+    /// tolerance in proportion (DESIGN 8.6). Measured in energy, content that carries little
+    /// of it (a faint high-frequency ring of a stiff beam) does not drive the step down.
+    /// - Both schemes: the kinetic energy of the step's local error estimated from the mean
+    ///   velocities of the last three steps (`Δx/h` and the spatial `R r/h`): h²v″/12, the
+    ///   midpoint rule's h³x‴/12 per unit h, with v″ from divided differences. End-of-step
+    ///   velocities are not used: with joints they carry EP's undamped period-2 ripple (an
+    ///   index-3 trait of the midpoint rule) and ED's velocity off the joints' tangent, which a
+    ///   predictor built on them would read as error at any step size. The first two steps,
+    ///   lacking history, are checked by step doubling.
+    /// - ED also: the step's jump energy D (a weighted norm of the jumps, ed-scheme-notes
+    ///   §3.4), which measures what the scheme dissipates — on a fast gyroscopic motion it
+    ///   grows far beyond the motion estimate (ED's phase and amplitude error there).
+    fn local_error(
+        &mut self,
+        end: &State,
+        h: f64,
+        report: &StepReport,
+    ) -> Result<f64, StepFailure> {
+        let motion = if self.recent_means.len() < 2 {
+            self.doubling_error(end, h)?
+        } else {
+            let energy = self.mean_velocity_error_energy(end, h);
+            self.relative_error(energy, end)
+        };
+        Ok(match self.settings.scheme {
+            Scheme::Ep => motion,
+            Scheme::Ed => {
+                motion.max(self.relative_error(report.numerical_dissipation.max(0.0), end))
+            }
+        })
+    }
+
+    /// `√(E_err/E)/tol`, E the motion's energy scale including the end state; zero while
+    /// nothing moves or strains.
+    fn relative_error(&self, error_energy: f64, end: &State) -> f64 {
+        let scale = self.energy_scale.max(self.system.motion_energy(end));
+        if scale <= 0.0 {
+            return 0.0;
         }
-        worst / self.settings.tolerance
+        (error_energy / scale).sqrt() / self.settings.tolerance
+    }
+
+    /// Mean velocity and spatial angular velocity over a step to `end`, of each node carrying
+    /// inertia.
+    fn step_means(&self, end: &State, h: f64) -> StepMeans {
+        let means = self
+            .system
+            .inertias
+            .iter()
+            .map(|k| {
+                let (a, b) = (&self.state.nodes[k.node], &end.nodes[k.node]);
+                let v = (b.x - a.x).scale_f(1.0 / h);
+                let w = a.r.mul_v(&rotation_between(&a.r, &b.r)).scale_f(1.0 / h);
+                (v, w)
+            })
+            .collect();
+        StepMeans { h, means }
+    }
+
+    /// EP's error energy `Σ ½ m |δv|² + ½ δωᵀ J δω` (J turned to the inertial frame): δ the
+    /// step's mean velocities minus their linear extrapolation from the previous two steps'
+    /// (an error ≈ h² v″ at equal steps), over 12 — the midpoint rule's local error, h³x‴/12,
+    /// per unit h.
+    fn mean_velocity_error_energy(&self, end: &State, h: f64) -> f64 {
+        let (older, last) = (&self.recent_means[0], &self.recent_means[1]);
+        let now = self.step_means(end, h);
+        // Mid-step times, relative to the last step's middle; v″ from divided differences,
+        // so the estimate h²v″/12 is the current step's whatever the previous sizes.
+        let (t_older, t_now) = (-0.5 * (older.h + last.h), 0.5 * (last.h + h));
+        let second = |a: V3<f64>, b: V3<f64>, c: V3<f64>| {
+            ((c - b).scale_f(1.0 / t_now) - (b - a).scale_f(1.0 / -t_older))
+                .scale_f(2.0 / (t_now - t_older) * h * h / 12.0)
+        };
+        let mut energy = 0.0;
+        for (k, inertia) in self.system.inertias.iter().enumerate() {
+            let dv = second(older.means[k].0, last.means[k].0, now.means[k].0);
+            let dw = second(older.means[k].1, last.means[k].1, now.means[k].1);
+            let dw_body = end.nodes[inertia.node].r.transpose().mul_v(&dw);
+            energy += 0.5 * inertia.mass * dv.norm_sq()
+                + 0.5 * dw_body.dot(&inertia.inertia.mul_v(&dw_body));
+        }
+        energy
+    }
+
+    /// EP's first two steps have too little history: their error is estimated by step
+    /// doubling — the full step against two halves, whose end positions differ by ¾ of the
+    /// full step's local error (local error ∝ h³) — in the same energy measure.
+    fn doubling_error(&mut self, end: &State, h: f64) -> Result<f64, StepFailure> {
+        let (mid, _) = self.integrator.step(&self.system, &self.state, 0.5 * h)?;
+        let (half, _) = self.integrator.step(&self.system, &mid, 0.5 * h)?;
+        let mut energy = 0.0;
+        for k in &self.system.inertias {
+            let (a, b) = (&end.nodes[k.node], &half.nodes[k.node]);
+            let dv = (a.x - b.x).scale_f(4.0 / 3.0 / h);
+            let dw = rotation_between(&b.r, &a.r).scale_f(4.0 / 3.0 / h);
+            energy += 0.5 * k.mass * dv.norm_sq() + 0.5 * dw.dot(&k.inertia.mul_v(&dw));
+        }
+        Ok(self.relative_error(energy, end))
     }
 
     /// One adaptive step: tried with the proposed size, rejected and retried smaller while its
-    /// error indicator exceeds 1 or Newton fails; the next size follows the indicator
-    /// (`h·min(grow, max(shrink, 0.9 e^(−1/3)))`, DESIGN 8.6).
+    /// error indicator exceeds 1 or Newton fails. The next size aims at e = 0.8:
+    /// `h·(0.8/e)^(1/q)` within the growth and shrink limits (DESIGN 8.6), with q the indicator's
+    /// observed order in h — nominally 2, but ED's jump energy steepens to q ≈ 4 as ωh nears 1
+    /// on a fast mode, where a fixed exponent would alternate between too long and rejected
+    /// steps. A step right after a rejection does not grow.
     fn adaptive_step(&mut self) -> Result<(), StepFailure> {
         let set = &self.settings;
         let (dt_min, dt_max) = (set.dt_min(), set.dt_max());
@@ -563,22 +665,38 @@ impl Simulation {
                 0.5 * remaining
             };
         }
+        let mut rejected = false;
+        let mut previous_trial = None;
         loop {
             self.follow_contacts();
-            match self.integrator.step(&self.system, &self.state, h) {
-                Ok((state, report)) => {
-                    let e = self.local_error(&state, h);
-                    let factor = if e > 0.0 {
-                        (0.9 * e.powf(-1.0 / 3.0)).clamp(shrink, grow)
-                    } else {
-                        grow
-                    };
-                    if e <= 1.0 {
+            let tried =
+                self.integrator
+                    .step(&self.system, &self.state, h)
+                    .and_then(|(state, report)| {
+                        let e = self.local_error(&state, h, &report)?;
+                        Ok((state, report, e))
+                    });
+            match tried {
+                Ok((state, report, e)) => {
+                    let factor = self.step_factor(h, e).clamp(shrink, grow);
+                    // An indicator that a step 1.5× shorter barely lowered (an order in h below
+                    // 0.26) measures the state, not the step — ED's jump settling the velocity
+                    // the step before left off its joints' tangent: no shorter step would meet
+                    // it, so take this one.
+                    let stuck =
+                        previous_trial.is_some_and(|(h0, e0)| h < 0.67 * h0 && e > 0.9 * e0);
+                    previous_trial = Some((h, e));
+                    if e <= 1.0 || stuck {
+                        if e > 1.0 {
+                            self.stats.over_tolerance += 1;
+                        }
                         self.accept(state, report, h);
+                        let factor = if rejected { factor.min(1.0) } else { factor };
                         self.h_next = (h * factor).clamp(dt_min, dt_max);
                         return Ok(());
                     }
                     self.stats.rejected += 1;
+                    rejected = true;
                     if h <= dt_min * (1.0 + 1e-12) {
                         return Err(StepFailure {
                             t: self.state.t,
@@ -593,11 +711,28 @@ impl Simulation {
                 Err(e) if e.retry && h > dt_min * (1.0 + 1e-12) => {
                     self.stats.rejected += 1;
                     self.stats.halvings += 1;
+                    rejected = true;
                     h = (0.25 * h).max(dt_min);
                 }
                 Err(e) => return Err(e),
             }
         }
+    }
+
+    /// The factor on `h` that brings the indicator `e` to 0.8, updating the indicator's
+    /// observed order q from the previous trial (kept within [1, 4]; 2 until measured).
+    fn step_factor(&mut self, h: f64, e: f64) -> f64 {
+        if e <= 0.0 {
+            return f64::INFINITY;
+        }
+        if let Some((h0, e0)) = self.last_trial {
+            let ratio = h / h0;
+            if e0 > 0.0 && !(0.9..=1.1).contains(&ratio) {
+                self.error_order = ((e / e0).ln() / ratio.ln()).clamp(1.0, 4.0);
+            }
+        }
+        self.last_trial = Some((h, e));
+        (0.8 / e).powf(1.0 / self.error_order)
     }
 
     /// Advances up to `t_target` (not past `t_end`), recording samples: fixed steps of `dt`
@@ -887,4 +1022,10 @@ fn check_redundancy(model: &Model, system: &System) -> Result<(), ModelErrors> {
         })
         .collect();
     Err(ModelErrors(errors))
+}
+
+/// The rotation parameters (Cayley) taking `from` to `to` in `from`'s frame; a half-turn or
+/// more (never within a converged step) reads as infinite.
+fn rotation_between(from: &crate::vec3::M3<f64>, to: &crate::vec3::M3<f64>) -> V3<f64> {
+    crate::rotation::cayley_log(&from.transpose().mul_m(to)).unwrap_or(V3([f64::INFINITY; 3]))
 }

@@ -36,7 +36,7 @@ def free_beam(scheme, dt, t_end, order=2):
         angular_velocity=[0.3, 2.0, 6.0],
     )
     m.sensor("energy", "e").sensor("momentum", "mom")
-    m.settings(scheme=scheme, dt=dt, t_end=t_end, newton_tol=1e-13)
+    m.settings(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end, newton_tol=1e-13)
     return m
 
 
@@ -145,7 +145,7 @@ def test_hanging_beam_carries_the_weight_below_each_section(order, elements):
     for eta in stations:
         m.sensor("beam_section", f"s{int(eta * 100)}", beam="rope", eta=eta)
     m.sensor("beam_section", "by_arc_length", beam="rope", s=1.0)
-    res = fd.simulate(m, scheme="ed", dt=1e-2, t_end=1.0)
+    res = fd.simulate(m, scheme="ed", step_control="fixed", dt=1e-2, t_end=1.0)
     # A station by arc length is the same as by fraction of the length.
     np.testing.assert_array_equal(res["by_arc_length.F1"].values, res["s50.F1"].values)
     # Lumping the mass at the nodes misplaces half a node's weight at a linear element's
@@ -203,7 +203,7 @@ def test_cantilever_first_bending_frequency(scheme, order, elements):
     m.beam("b", [0, 0, 0], [length, 0, 0], elements=elements, order=order, section=sec)
     m.clamp("root", "ground", "b.0")
     m.sensor("node_position", "tip", node=f"b.{elements * order}")
-    res = fd.simulate(m, scheme=scheme, dt=2e-3, t_end=6.0)
+    res = fd.simulate(m, scheme=scheme, step_control="fixed", dt=2e-3, t_end=6.0)
     z = res["tip.z"].values
     t = res.time.values
     zc = z - 0.5 * (z.max() + z.min())
@@ -248,7 +248,7 @@ def spinning_blade_error(elements):
     for eta in stations:
         m.sensor("beam_section", f"s{int(eta * 100)}", beam="blade", eta=eta)
     m.sensor("joint_coordinate", "spin", joint="shaft")
-    s = fd.simulate(m, scheme="ed", dt=5e-3, t_end=6.0).isel(time=-1)
+    s = fd.simulate(m, scheme="ed", step_control="fixed", dt=5e-3, t_end=6.0).isel(time=-1)
     rate = float(s["spin.phi_rate"])
     assert rate == pytest.approx(omega, rel=1e-4)
     for eta in stations:
@@ -292,7 +292,7 @@ def test_tip_loaded_cantilever_bending_moment(order, elements):
     for eta in stations:
         m.sensor("beam_section", f"s{int(eta * 100)}", beam="b", eta=eta)
     m.sensor("node_displacement", "tip", node=f"b.{n}")
-    s = fd.simulate(m, scheme="ed", dt=2e-3, t_end=4.0).isel(time=-1)
+    s = fd.simulate(m, scheme="ed", step_control="fixed", dt=2e-3, t_end=4.0).isel(time=-1)
     for eta in stations:
         assert float(s[f"s{int(eta * 100)}.M3"]) == pytest.approx(
             p * length * (1 - eta), abs=3e-3 * p * length
@@ -338,7 +338,7 @@ def test_offset_centres_of_mass_conserve_energy_and_momenta_under_ep():
         angular_velocity=[1.0, 0.5, 3.0],
     )
     m.sensor("energy", "e").sensor("momentum", "p").sensor("beam_energy", "be", beam="b")
-    s = fd.simulate(m, scheme="ep", dt=2e-3, t_end=1.0)
+    s = fd.simulate(m, scheme="ep", step_control="fixed", dt=2e-3, t_end=1.0)
     e = s["e.total"].values
     assert np.abs(e - e[0]).max() < 1e-9 * e[0]
     for c in ("px", "py", "pz", "Hx", "Hy", "Hz"):
@@ -377,7 +377,7 @@ def test_ed_keeps_the_rotational_energy_of_a_spinning_stiff_beam():
         angular_velocity=[0, 0, omega],
     )
     m.sensor("energy", "e").sensor("momentum", "p").sensor("beam_energy", "be", beam="b")
-    s = fd.simulate(m, scheme="ed", dt=2e-2, t_end=20 * 2 * np.pi / omega)
+    s = fd.simulate(m, scheme="ed", step_control="fixed", dt=2e-2, t_end=20 * 2 * np.pi / omega)
     e = s["e.total"].values
     loss = e[0] - e[-1]
     assert 0 <= loss <= 1.5 * s["be.strain"].values.max()

@@ -28,7 +28,7 @@ def slider_crank(scheme, dt=1e-3, t_end=1.0, omega=2 * np.pi):
     m.sensor("node_position", "s", node="slider").sensor("joint_coordinate", "q", joint="slide")
     m.sensor("drive_force", "motor", joint="shaft").sensor("energy", "e")
     m.sensor("joint_reaction", "rail", joint="slide").sensor("joint_reaction", "bearing", joint="shaft")
-    return m, r, l, omega, fd.simulate(m, scheme=scheme, dt=dt, t_end=t_end)
+    return m, r, l, omega, fd.simulate(m, scheme=scheme, step_control="fixed", dt=dt, t_end=t_end)
 
 
 def slider_crank_energy(t, r, l, omega):
@@ -92,7 +92,7 @@ def nut_on_screw(scheme, pitch, t_end, dt=1e-3):
     m.screw("thread", "ground", "nut", axis=[0, 0, 1], pitch=pitch)
     m.sensor("joint_coordinate", "q", joint="thread").sensor("node_rotation", "rot", node="nut")
     m.sensor("energy", "e").sensor("node_position", "p", node="nut")
-    return m_nut, j_nut, fd.simulate(m, scheme=scheme, dt=dt, t_end=t_end)
+    return m_nut, j_nut, fd.simulate(m, scheme=scheme, step_control="fixed", dt=dt, t_end=t_end)
 
 
 @pytest.mark.parametrize("scheme", ["ep", "ed"])
@@ -129,7 +129,7 @@ def test_sprung_slide_oscillates_at_sqrt_k_over_m(scheme):
     m.rigid_body("body", "b", mass=mass, inertia=[0.01, 0.02, 0.03])
     m.prismatic("rail", "ground", "b", axis=axis, spring={"stiffness": k})
     m.sensor("joint_coordinate", "q", joint="rail").sensor("energy", "e")
-    s = fd.simulate(m, scheme=scheme, dt=1e-3, t_end=1.0)
+    s = fd.simulate(m, scheme=scheme, step_control="fixed", dt=1e-3, t_end=1.0)
     omega = np.sqrt(k / mass)
     static = mass * G * np.sin(alpha) / k
     exact = static * (1 - np.cos(omega * s.time.values))
@@ -159,7 +159,7 @@ def free_cylinder(scheme):
         spring_delta={"stiffness": 50.0},
     )
     m.sensor("joint_coordinate", "q", joint="sleeve_joint").sensor("energy", "e").sensor("momentum", "p")
-    return fd.simulate(m, scheme=scheme, dt=2e-3, t_end=2.0, newton_tol=1e-13)
+    return fd.simulate(m, scheme=scheme, step_control="fixed", dt=2e-3, t_end=2.0, newton_tol=1e-13)
 
 
 def test_cylindrical_joint_conserves_energy_and_momenta_under_ep():
@@ -220,7 +220,7 @@ def planar_four_bar(last_joint):
 def test_an_over_constrained_loop_is_reported_by_its_joints():
     m = planar_four_bar(lambda m, p: m.revolute("jd", "rocker", "ground", axis=[0, 0, 1], position=p))
     with pytest.raises(fd.ModelError) as e:
-        fd.simulate(m, t_end=0.01, dt=1e-3)
+        fd.simulate(m, t_end=0.01, step_control="fixed", dt=1e-3)
     msg = str(e.value)
     assert "the constraints of `ja`, `jb`, `jc`, `jd` are not independent in the initial configuration" in msg
     assert "make one a universal or spherical joint" in msg
@@ -236,7 +236,7 @@ def test_an_over_constrained_loop_is_reported_by_its_joints():
         "axis1": [0, 0, 1],
         "axis2": [1, 0, 0],
     }
-    assert fd.simulate(ok, t_end=0.01, dt=1e-3).attrs["completed"] == 1
+    assert fd.simulate(ok, t_end=0.01, step_control="fixed", dt=1e-3).attrs["completed"] == 1
 
 
 def test_a_drive_on_a_locked_coordinate_is_reported():
@@ -247,7 +247,7 @@ def test_a_drive_on_a_locked_coordinate_is_reported():
     with pytest.raises(
         fd.ModelError, match=r"`slide`, `weld` are not independent .* a drive prescribes a motion"
     ):
-        fd.simulate(m, t_end=0.01, dt=1e-3)
+        fd.simulate(m, t_end=0.01, step_control="fixed", dt=1e-3)
 
 
 def carrier_and_slider(local):
@@ -285,7 +285,7 @@ def carrier_and_slider(local):
             spring={"stiffness": 30.0},
         )
     m.sensor("node_position", "pos", node="p").sensor("joint_coordinate", "q", joint="slide")
-    return fd.simulate(m, scheme="ep", dt=2e-3, t_end=0.5)
+    return fd.simulate(m, scheme="ep", step_control="fixed", dt=2e-3, t_end=0.5)
 
 
 def test_joint_geometry_given_in_a_node_triad_matches_the_inertial_one():
@@ -301,7 +301,7 @@ def stiffening_slide(scheme, spring):
     m.rigid_body("body", "b", mass=2.0, inertia=[0.01, 0.02, 0.03])
     m.prismatic("rail", "ground", "b", axis=[1, 0, 0], spring=spring)
     m.sensor("joint_coordinate", "q", joint="rail").sensor("energy", "e")
-    return fd.simulate(m, scheme=scheme, dt=2e-3, t_end=2.0)
+    return fd.simulate(m, scheme=scheme, step_control="fixed", dt=2e-3, t_end=2.0)
 
 
 # A spring that stiffens fourfold beyond ±0.1 m (a bump stop), swept through both ends.

@@ -16,7 +16,7 @@ def free_body(scheme, dt, t_end):
     m.rigid_body("body", "b", mass=2.0, inertia=J_FREE.tolist())
     m.sensor("energy", "e")
     track(m, "b")
-    m.settings(scheme=scheme, dt=dt, t_end=t_end, newton_tol=1e-13)
+    m.settings(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end, newton_tol=1e-13)
     return m
 
 
@@ -30,7 +30,7 @@ def heavy_top(scheme, dt, t_end):
     m.spherical("pivot", "ground", "top", position=[0, 0, 0])
     m.sensor("energy", "e")
     track(m, "top")
-    m.settings(scheme=scheme, dt=dt, t_end=t_end, newton_tol=1e-13)
+    m.settings(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end, newton_tol=1e-13)
     return m
 
 
@@ -45,7 +45,7 @@ def double_pendulum(scheme, dt, t_end):
     m.revolute("knee", "b1", "b2", axis=[0, 1, 0], position=[1.0, 0, 0])
     m.sensor("energy", "e")
     m.sensor("joint_coordinate", "knee_angle", joint="knee")
-    m.settings(scheme=scheme, dt=dt, t_end=t_end, newton_tol=1e-13)
+    m.settings(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end, newton_tol=1e-13)
     return m
 
 

@@ -23,7 +23,7 @@ def spinning_rotor(scheme, dt=0.05, t_end=10.0, k=1e3):
     m.revolute("hinge", "hub", "tip", axis=[0, 0, 1], position=[1, 0, 0], spring={"stiffness": k})
     m.sensor("energy", "e").sensor("joint_coordinate", "hinge_angle", joint="hinge")
     track(m, "hub", "tip")
-    m.settings(scheme=scheme, dt=dt, t_end=t_end, newton_tol=1e-12)
+    m.settings(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end, newton_tol=1e-12)
     return m
 
 

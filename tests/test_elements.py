@@ -20,7 +20,7 @@ def test_constant_force_and_moment_give_exact_motion(scheme):
     model.force("push", "b", force)
     model.moment("twist", "b", [0, 0, moment], scale=1.0)
     model.sensor("node_position", "p", node="b").sensor("node_velocity", "v", node="b").sensor("energy", "e")
-    res = fd.simulate(model, scheme=scheme, dt=0.01, t_end=2.0)
+    res = fd.simulate(model, scheme=scheme, step_control="fixed", dt=0.01, t_end=2.0)
     t = res.time.values
     for k, c in enumerate("xyz"):
         exact = [0.1, 0, 0][k] * t + force[k] * t**2 / (2 * m)
@@ -48,8 +48,22 @@ def heavy_top_model(at_pivot: bool):
 
 @pytest.mark.parametrize("scheme", ["ep", "ed"])
 def test_offset_centre_of_mass_equals_node_at_centre_of_mass(scheme):
-    a = fd.simulate(heavy_top_model(at_pivot=True), scheme=scheme, dt=1e-3, t_end=1.0, newton_tol=1e-13)
-    b = fd.simulate(heavy_top_model(at_pivot=False), scheme=scheme, dt=1e-3, t_end=1.0, newton_tol=1e-13)
+    a = fd.simulate(
+        heavy_top_model(at_pivot=True),
+        scheme=scheme,
+        step_control="fixed",
+        dt=1e-3,
+        t_end=1.0,
+        newton_tol=1e-13,
+    )
+    b = fd.simulate(
+        heavy_top_model(at_pivot=False),
+        scheme=scheme,
+        step_control="fixed",
+        dt=1e-3,
+        t_end=1.0,
+        newton_tol=1e-13,
+    )
     for c in ["R11", "R12", "R21", "R23", "R32", "R33"]:
         np.testing.assert_allclose(a[f"rot.{c}"].values, b[f"rot.{c}"].values, atol=1e-9)
     np.testing.assert_allclose(a["e.total"].values, b["e.total"].values, atol=1e-9)
@@ -71,8 +85,8 @@ def test_clamped_halves_move_as_one_rigid_body():
     whole.revolute("pin", "ground", "c", axis=[0, 1, 0], position=[0, 0, 0])
     whole.sensor("joint_coordinate", "angle", joint="pin")
     for scheme in ["ep", "ed"]:
-        r1 = fd.simulate(split, scheme=scheme, dt=2e-3, t_end=2.0, newton_tol=1e-13)
-        r2 = fd.simulate(whole, scheme=scheme, dt=2e-3, t_end=2.0, newton_tol=1e-13)
+        r1 = fd.simulate(split, scheme=scheme, step_control="fixed", dt=2e-3, t_end=2.0, newton_tol=1e-13)
+        r2 = fd.simulate(whole, scheme=scheme, step_control="fixed", dt=2e-3, t_end=2.0, newton_tol=1e-13)
         assert np.ptp(r2["angle.phi"].values) > 1.0
         np.testing.assert_allclose(r1["angle.phi"].values, r2["angle.phi"].values, atol=1e-9)
 
@@ -91,7 +105,7 @@ def test_damper_dissipates_and_the_energy_balance_closes(scheme):
         spring={"stiffness": 5.0, "damping": 0.5, "rest": 0.2},
     )
     m.sensor("energy", "e")
-    res = fd.simulate(m, scheme=scheme, dt=5e-3, t_end=5.0)
+    res = fd.simulate(m, scheme=scheme, step_control="fixed", dt=5e-3, t_end=5.0)
     w = res["e.damper_work"].values
     assert np.all(np.diff(w) <= 0) and w[-1] < -1.0
     scale = np.max(np.abs(res["e.total"].values))
@@ -111,7 +125,7 @@ def test_reaction_is_the_force_that_moves_the_body():
     m.sensor("joint_reaction", "rx", joint="pin")
     track(m, "bob")
     for scheme in ["ep", "ed"]:
-        res = fd.simulate(m, scheme=scheme, dt=h, t_end=1.0, newton_tol=1e-13)
+        res = fd.simulate(m, scheme=scheme, step_control="fixed", dt=h, t_end=1.0, newton_tol=1e-13)
         g = np.array([0, 0, -9.81])
         v = np.stack([res[f"bob_vel.v{c}"].values for c in "xyz"], axis=-1)
         f = np.stack([res[f"rx.F{c}"].values for c in "xyz"], axis=-1)

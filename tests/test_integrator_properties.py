@@ -58,7 +58,16 @@ def test_second_order_on_the_heavy_top(scheme):
     # nonlinear problems), against a run with a step 16× smaller than the finest.
     def run(h):
         m = fd.load(ROOT / "examples" / "heavy_top.yaml")
-        m.settings(**{**m.data["simulation"], "t_end": 0.5, "dt": h, "output_dt": 0.01, "scheme": scheme})
+        m.settings(
+            **{
+                **m.data["simulation"],
+                "t_end": 0.5,
+                "dt": h,
+                "output_dt": 0.01,
+                "scheme": scheme,
+                "step_control": "fixed",
+            }
+        )
         res = fd.simulate(m)
         return np.stack([res[f"cm.{c}"].values for c in "xyz"], axis=1)
 

@@ -22,7 +22,7 @@ def spun_up_body(max_halvings=2):
     m.rigid_body("disk_body", "disk", mass=1.0, inertia=[1.0, 1.0, 1.0])
     m.moment("motor", "disk", [0, 0, 100.0], scale="t")
     m.sensor("node_velocity", "disk_vel", node="disk")
-    m.settings(scheme="ed", dt=0.01, t_end=10.0, max_step_halvings=max_halvings)
+    m.settings(scheme="ed", step_control="fixed", dt=0.01, t_end=10.0, max_step_halvings=max_halvings)
     return m
 
 
@@ -101,6 +101,23 @@ def test_cli_run_writes_results(tmp_path):
     assert xr.open_dataset(out).sizes["time"] == 51
 
 
+def test_cli_run_steps_adaptively_unless_told_to_keep_dt(tmp_path):
+    model = tmp_path / "pendulum.yaml"
+    double_pendulum("ed", 0.01, 0.5).to_yaml(model)  # the file says step_control: fixed
+    fd.load(model).settings(step_control="adaptive").to_yaml(model)
+    steps = {}
+    for flag in ([], ["--fixed-step"]):
+        p = subprocess.run(
+            [sys.executable, "-m", "flexdyn.cli", "run", str(model), *flag],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        assert p.returncode == 0, p.stderr
+        steps[bool(flag)] = int(p.stdout.split("ED: ")[1].split(" steps")[0])
+    assert steps[True] == 50 and steps[False] != 50, steps
+
+
 def test_cli_run_failure_exits_nonzero_and_keeps_partial_file(tmp_path):
     model = tmp_path / "spin.yaml"
     spun_up_body().to_yaml(model)
@@ -123,7 +140,7 @@ def test_inconsistent_given_velocities_are_projected_and_reported():
     m.rigid_body("ball", "bob", mass=2.0, inertia=[0.01] * 3)
     m.revolute("pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0])
     m.sensor("node_velocity", "v", node="bob")
-    res = fd.simulate(m, scheme="ed", dt=1e-3, t_end=0.01)
+    res = fd.simulate(m, scheme="ed", step_control="fixed", dt=1e-3, t_end=0.01)
     (w,) = res.attrs["warnings_list"]
     assert "`bob`" in w and "adjusted" in w
     # The kinetic-energy-closest admissible velocity keeps the tangential part only.
@@ -162,7 +179,7 @@ def test_unspecified_velocities_follow_the_given_ones():
     m.rigid_body("body_b", "b", mass=5.0, inertia=[1, 1, 1])
     m.clamp("weld", "a", "b")
     m.sensor("node_velocity", "va", node="a").sensor("node_velocity", "vb", node="b")
-    res = fd.simulate(m, scheme="ed", dt=1e-3, t_end=0.002)
+    res = fd.simulate(m, scheme="ed", step_control="fixed", dt=1e-3, t_end=0.002)
     assert res.attrs["warnings_list"] == []
     # Unspecified nodes weigh 1e-6 of their mass in the projection, and three proximal solves
     # shrink the pull on the given velocities to ~1e-18.

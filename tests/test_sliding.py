@@ -48,7 +48,7 @@ def free_collar(scheme, order=3, kind="point", t_end=2.0):
     m.sensor("momentum", "p")
     m.sensor("joint_coordinate", "contact", joint="slider")
     m.sensor("joint_reaction", "r", joint="slider")
-    m.settings(t_end=t_end, dt=1e-3, scheme=scheme)
+    m.settings(t_end=t_end, step_control="fixed", dt=1e-3, scheme=scheme)
     return m
 
 
@@ -104,7 +104,7 @@ def rotating_rod(omega=2.0, r0=0.3, t_end=1.0, scheme="ep", dt=1e-3):
     m.sensor("joint_coordinate", "contact", joint="slider")
     m.sensor("joint_reaction", "r", joint="slider")
     m.sensor("energy", "E")
-    m.settings(t_end=t_end, dt=dt, scheme=scheme)
+    m.settings(t_end=t_end, step_control="fixed", dt=dt, scheme=scheme)
     return m
 
 
@@ -148,7 +148,7 @@ def driven_collar(scheme="ed", drive="0.5 - 0.25*cos(2*pi*t)", order=3):
     m.sensor("drive_force", "push", joint="slider")
     m.sensor("joint_coordinate", "contact", joint="slider")
     m.sensor("energy", "E")
-    m.settings(t_end=1.0, dt=1e-3, scheme=scheme)
+    m.settings(t_end=1.0, step_control="fixed", dt=1e-3, scheme=scheme)
     return m
 
 
@@ -193,7 +193,7 @@ def test_sliding_screw_turns_the_follower_with_the_beams_pretwist():
     m.sliding_joint("slider", "track", "nut", eta=fd.drive("0.25 + 0.5*t"), kind="screw")
     m.sensor("node_rotation", "nut_rot", node="nut")
     m.sensor("joint_coordinate", "contact", joint="slider")
-    m.settings(t_end=1.0, dt=2e-3, scheme="ed")
+    m.settings(t_end=1.0, step_control="fixed", dt=2e-3, scheme="ed")
     res = fd.simulate(m)
     s = res["contact.s"].values
     turn = res["nut_rot.x"].values
@@ -236,7 +236,7 @@ def kinked_track(phi, scheme, theta_deg=10.0, v=1.0, h=1e-3):
     m.sliding_joint("slider", "track", "collar")
     m.sensor("node_velocity", "vel", node="collar")
     m.sensor("joint_coordinate", "contact", joint="slider")
-    m.settings(t_end=0.12, dt=h, scheme=scheme)
+    m.settings(t_end=0.12, step_control="fixed", dt=h, scheme=scheme)
     return m, th
 
 
@@ -274,7 +274,7 @@ def collar_on_track(scheme, spring=None, end_stops=None, eta=0.6, v=0.0, t_end=1
     m.sliding_joint("slider", "track", "collar", spring=spring, end_stops=end_stops)
     m.sensor("joint_coordinate", "contact", joint="slider")
     m.sensor("energy", "E")
-    m.settings(t_end=t_end, dt=1e-3, scheme=scheme)
+    m.settings(t_end=t_end, step_control="fixed", dt=1e-3, scheme=scheme)
     return m
 
 
@@ -320,7 +320,7 @@ def test_ed_contact_force_has_no_spikes_at_element_crossings():
     m.sensor("joint_reaction", "contact_force", joint="slider")
     m.sensor("joint_coordinate", "contact", joint="slider")
     # Statically loaded (the collar's weight on the beam) before the slide starts.
-    m.settings(t_end=2.0, dt=1e-3, scheme="ed", preload=True)
+    m.settings(t_end=2.0, step_control="fixed", dt=1e-3, scheme="ed", preload=True)
     res = fd.simulate(m)
     force = res["contact_force.F2"].values
     element = np.floor(res["contact.eta"].values * 12 + 1e-9)
@@ -403,7 +403,7 @@ def test_beam_slides_through_a_fixed_sleeve():
     m.sensor("joint_coordinate", "contact", joint="sleeve")
     m.sensor("joint_reaction", "guide", joint="sleeve")
     m.sensor("energy", "E")
-    m.settings(t_end=1.0, dt=1e-3, scheme="ep")
+    m.settings(t_end=1.0, step_control="fixed", dt=1e-3, scheme="ep")
     res = fd.simulate(m)
     t = res["time"].values
     np.testing.assert_allclose(res["contact.eta"].values, 0.5 - 0.5 * t / 2.4, atol=1e-12)

@@ -370,8 +370,8 @@ class Model:
 
     def settings(self, **fields):
         """Simulation settings: analysis ("dynamic"/"static"), load_steps, scheme ("ep"/"ed"),
-        t_end, dt, output_dt, newton_tol, max_newton_iterations, max_step_halvings;
-        step_control ("fixed"/"adaptive"), tolerance, dt_min, dt_max, max_growth, max_shrink;
+        t_end, dt, output_dt, newton_tol, newton_increment_tol, max_newton_iterations,
+        max_step_halvings; step_control ("adaptive", the default, or "fixed"), tolerance, dt_min, dt_max, max_growth, max_shrink;
         preload (start a dynamic run from the static equilibrium at t = 0), modified_newton."""
         self.data["simulation"].update(fields)
         return self

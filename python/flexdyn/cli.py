@@ -19,7 +19,7 @@ def _run(args) -> int:
             dt=args.dt,
             scheme=args.scheme,
             output_dt=args.output_dt,
-            step_control="adaptive" if args.tolerance is not None else None,
+            step_control="fixed" if args.fixed_step else ("adaptive" if args.tolerance is not None else None),
             tolerance=args.tolerance,
             out=args.output,
             progress=not args.quiet and sys.stderr.isatty(),
@@ -48,7 +48,8 @@ def _run(args) -> int:
             )
         else:
             print(
-                f"{res.attrs['scheme'].upper()}: {s['steps']} steps, {s['halvings']} halvings, "
+                f"{res.attrs['scheme'].upper()}: {s['steps']} steps "
+                f"({s['dt_smallest']:.2e} to {s['dt_largest']:.2e} s, {s['rejected']} rejected), "
                 f"{s['newton_iterations']} Newton iterations, {s['factorizations']} factorizations, "
                 f"wall {s['wall_time_s']:.2f} s; max |C| {s['max_constraint_violation']:.2e}, "
                 f"max energy-identity defect {s['max_energy_defect']:.2e} J"
@@ -96,6 +97,7 @@ def main(argv=None) -> int:
     r.add_argument("--dt", type=float)
     r.add_argument("--output-dt", type=float)
     r.add_argument("--tolerance", type=float, help="adaptive steps with this local error tolerance")
+    r.add_argument("--fixed-step", action="store_true", help="fixed steps of dt instead of adaptive steps")
     r.add_argument("-q", "--quiet", action="store_true")
     r.set_defaults(func=_run)
     md = sub.add_parser("modes", help="natural frequencies about the static equilibrium")

@@ -78,6 +78,8 @@ pub struct Integrator {
     y: Vec<f64>,
     res: Vec<f64>,
     pub tol: f64,
+    /// Convergence on a small update (see `SimulationSettings::newton_increment_tol`).
+    pub increment_tol: f64,
     pub max_iter: usize,
     pub total_iterations: usize,
     /// Assemblies in which a kernel wrote outside the detected pattern (should stay 0).
@@ -99,6 +101,7 @@ impl Integrator {
     pub fn new(sys: &System, settings: &SimulationSettings) -> Self {
         let mut integ = Self::with_pattern(sys, settings.dt);
         integ.tol = settings.newton_tol;
+        integ.increment_tol = settings.newton_increment_tol;
         integ.max_iter = settings.max_newton_iterations as usize;
         integ.modified_newton = settings.modified_newton;
         integ
@@ -109,6 +112,7 @@ impl Integrator {
     pub fn rebuild_pattern(&mut self, sys: &System, h: f64) {
         let mut fresh = Self::with_pattern(sys, h);
         fresh.tol = self.tol;
+        fresh.increment_tol = self.increment_tol;
         fresh.max_iter = self.max_iter;
         fresh.total_iterations = self.total_iterations;
         fresh.pattern_misses = self.pattern_misses;
@@ -152,6 +156,7 @@ impl Integrator {
             y: vec![0.0; n],
             res: vec![0.0; n],
             tol: 1e-10,
+            increment_tol: 0.0,
             max_iter: 20,
             total_iterations: 0,
             pattern_misses: 0,
@@ -450,6 +455,7 @@ impl Integrator {
         let mut report = StepReport::default();
         let mut f_ref = 0.0;
         let mut clamped: Option<&str> = None;
+        let mut small_update = false;
         let converged_before = std::mem::replace(&mut self.last_converged, false);
         let factors_fit = self.modified_newton && !ctx.is_static();
         for it in 0..=self.max_iter {
@@ -487,7 +493,8 @@ impl Integrator {
             }
             let k = report.residuals.len();
             let stagnated = k >= 3 && rn > 0.5 * report.residuals[k - 2] && rn < 1e-6 * f_ref;
-            if rn <= self.tol * f_ref || stagnated {
+            let settled = small_update && rn < 1e-6 * f_ref;
+            if rn <= self.tol * f_ref || stagnated || settled {
                 break;
             }
             if it == self.max_iter {
@@ -510,6 +517,15 @@ impl Integrator {
                 self.solve_update().map_err(fail)?;
                 self.factored_for = Some(ctx.h);
             }
+            // The update just applied (left in `res` by the solve), node by node.
+            small_update = self.increment_tol > 0.0
+                && (0..layout.n_nodes).all(|a| {
+                    let d = layout.node_delta(a);
+                    let u = &self.res[d..d + 6];
+                    let dx = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt() / sys.length_ref;
+                    let dr = (u[3] * u[3] + u[4] * u[4] + u[5] * u[5]).sqrt();
+                    dx.max(dr) <= self.increment_tol
+                });
             clamped = self.keep_contacts_in_windows(sys, ctx);
             if let Some(bad) = self.y.iter().position(|v| !v.is_finite()) {
                 // Singular whatever the step: an unconstrained massless motion, or a mechanism

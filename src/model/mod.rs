@@ -915,18 +915,24 @@ pub struct SimulationSettings {
     /// Newton convergence: residual norm relative to the model's force scale.
     #[serde(default = "default_newton_tol")]
     pub newton_tol: f64,
+    /// Newton convergence, second test: the last update moved every node by less than this,
+    /// relative to the model's size (radians for rotations), with the residual below 1e-6 of
+    /// its scale — for models whose residual round-off sits above `newton_tol`. 0 disables.
+    #[serde(default = "default_newton_increment_tol")]
+    pub newton_increment_tol: f64,
     #[serde(default = "default_max_iter")]
     pub max_newton_iterations: u32,
     /// Modified Newton: reuse the LU factors (across steps of the same size too) while the
     /// residual falls fast, refactoring as soon as it does not.
     #[serde(default)]
     pub modified_newton: bool,
-    /// `fixed` steps of `dt`, or `adaptive` steps (`dt` is the first) chosen by a local error
-    /// indicator against `tolerance`.
+    /// `adaptive` steps (the default; `dt` is the first) chosen by a local error indicator
+    /// against `tolerance`, or `fixed` steps of `dt`.
     #[serde(default)]
     pub step_control: StepControl,
-    /// Adaptive stepping: the largest local error per step, relative to the model's size for
-    /// positions and in radians for rotations.
+    /// Adaptive stepping: the largest local error per step, as a velocity error relative to
+    /// the motion's (√ of an error energy over the largest kinetic + strain energy so far;
+    /// for ED the step's jump energy). Global errors scale in proportion to it.
     #[serde(default = "default_tolerance")]
     pub tolerance: f64,
     /// Adaptive stepping: bounds on the step, s (defaults: dt·1e-6, and t_end/10 or dt if larger).
@@ -949,8 +955,8 @@ pub struct SimulationSettings {
 #[derive(Serialize, Deserialize, JsonSchema, Clone, Copy, Debug, PartialEq, Eq, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum StepControl {
-    #[default]
     Fixed,
+    #[default]
     Adaptive,
 }
 
@@ -964,7 +970,7 @@ impl SimulationSettings {
 }
 
 fn default_tolerance() -> f64 {
-    1e-6
+    1e-3
 }
 fn default_max_growth() -> f64 {
     2.0
@@ -988,6 +994,9 @@ fn default_max_halvings() -> u32 {
 fn default_newton_tol() -> f64 {
     1e-10
 }
+fn default_newton_increment_tol() -> f64 {
+    1e-12
+}
 fn default_max_iter() -> u32 {
     25
 }
@@ -1003,6 +1012,7 @@ impl Default for SimulationSettings {
             output_dt: None,
             max_step_halvings: default_max_halvings(),
             newton_tol: default_newton_tol(),
+            newton_increment_tol: default_newton_increment_tol(),
             max_newton_iterations: default_max_iter(),
             modified_newton: false,
             step_control: StepControl::default(),

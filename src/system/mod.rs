@@ -901,6 +901,18 @@ impl System {
         (p, h)
     }
 
+    /// The energy that measures a motion's size: kinetic, strain and spring energy (gravity's
+    /// potential is left out: its datum is arbitrary).
+    pub fn motion_energy(&self, s: &State) -> f64 {
+        let springs: f64 = self
+            .springs
+            .iter()
+            .map(|sp| sp.law.energy(s.coords[sp.coord]))
+            .sum();
+        let strain: f64 = self.beams.iter().map(|b| b.strain_energy(s)).sum();
+        self.kinetic_energy(s) + springs + strain
+    }
+
     /// Potential energy of gravity and springs.
     pub fn potential_energy(&self, s: &State) -> f64 {
         let grav: f64 = self
