@@ -108,8 +108,9 @@ def simulate(
     xarray.Dataset with a `time` coordinate; with `out`, streams them to that NetCDF file.
     A model whose `simulation.analysis` is `static` is solved as by `solve_static`.
 
-    Keyword arguments override the model's `simulation` settings (`step_control="adaptive"`
-    with a `tolerance` chooses the steps; `output_dt` records at exactly k·output_dt). With `out`, samples go to
+    Keyword arguments override the model's `simulation` settings (steps are adaptive to
+    `tolerance` by default, `dt` the first; `step_control="fixed"` keeps them at `dt`;
+    `output_dt` records at exactly k·output_dt). With `out`, samples go to
     disk chunk by chunk and are not kept in memory: the returned dataset reads the file
     lazily, so memory stays flat however long the run. `on_chunk(times, values)` is called
     for every chunk (live plots, custom sinks). If a step cannot be completed, SolverError is
