@@ -2,7 +2,7 @@
 //! sensor expands into channels `<sensor>.<component>` with SI units.
 
 use crate::integrator::StepReport;
-use crate::model::{Model, Sensor};
+use crate::model::{Model, ModelError, ModelErrors, Sensor};
 use crate::rotation::{exp_map, log_map};
 use crate::state::State;
 use crate::system::System;
@@ -102,7 +102,36 @@ impl Channels {
         }
     }
 
-    pub fn new(model: &Model, sys: &System) -> Channels {
+    /// Of the channels from `first` on (one sensor's), keeps only `<name>.<comp>`, renamed
+    /// `<name>`.
+    fn keep_only(&mut self, first: usize, name: &str, comp: &str) -> Result<(), String> {
+        let wanted = format!("{name}.{comp}");
+        let Some(k) = (first..self.names.len()).find(|&k| self.names[k] == wanted) else {
+            let have: Vec<&str> = self.names[first..]
+                .iter()
+                .map(|n| n.rsplit('.').next().unwrap_or(n))
+                .collect();
+            return Err(format!(
+                "`{comp}` is not a component of sensor `{name}`; it has {}",
+                have.join(", ")
+            ));
+        };
+        let is_step = self.step_channels.contains(&k);
+        let (unit, source) = (self.units[k], self.sources[k].clone());
+        self.names.truncate(first);
+        self.units.truncate(first);
+        self.sources.truncate(first);
+        self.step_channels.retain(|&c| c < first);
+        if is_step {
+            self.step_channels.push(first);
+        }
+        self.names.push(name.to_string());
+        self.units.push(unit);
+        self.sources.push(source);
+        Ok(())
+    }
+
+    pub fn new(model: &Model, sys: &System) -> Result<Channels, ModelErrors> {
         let mut c = Channels {
             names: vec![],
             units: vec![],
@@ -124,8 +153,10 @@ impl Channels {
                 }
             };
         let node = |n: &str| sys.node_index(n).expect("validated");
-        for s in &model.sensors {
+        let mut errors = Vec::new();
+        for (i, s) in model.sensors.iter().enumerate() {
             let name = s.name();
+            let first = c.names.len();
             match s {
                 Sensor::NodePosition { node: n, .. } => add(
                     &mut c,
@@ -227,20 +258,20 @@ impl Channels {
                             &["N", "N*m", "J"],
                             Source::SlidingDrive(d, kernel),
                         );
-                        continue;
-                    }
-                    let (force, unit) = if spec.is_rotation() {
-                        ("torque", "N*m")
                     } else {
-                        ("force", "N")
-                    };
-                    add(
-                        &mut c,
-                        name,
-                        &[force, "work"],
-                        &[unit, "J"],
-                        Source::Drive(d),
-                    )
+                        let (force, unit) = if spec.is_rotation() {
+                            ("torque", "N*m")
+                        } else {
+                            ("force", "N")
+                        };
+                        add(
+                            &mut c,
+                            name,
+                            &[force, "work"],
+                            &[unit, "J"],
+                            Source::Drive(d),
+                        )
+                    }
                 }
                 Sensor::Energy { .. } => add(&mut c, name, &ENERGY, &["J"], Source::Energy),
                 Sensor::BeamSection { beam, eta, s, .. } => {
@@ -297,8 +328,16 @@ impl Channels {
                     Source::Momentum,
                 ),
             }
+            if let Some(comp) = s.component() {
+                if let Err(e) = c.keep_only(first, name, comp) {
+                    errors.push(ModelError::new(format!("sensors[{i}].component"), e));
+                }
+            }
         }
-        c
+        if !errors.is_empty() {
+            return Err(ModelErrors(errors));
+        }
+        Ok(c)
     }
 
     pub fn len(&self) -> usize {

@@ -187,7 +187,7 @@ impl Simulation {
             ));
         }
         let integrator = Integrator::new(&system, &settings);
-        let channels = Channels::new(model, &system);
+        let channels = Channels::new(model, &system).map_err(SimError::Model)?;
         let e0 = system.kinetic_energy(&state) + system.potential_energy(&state);
         let totals = Totals {
             initial_energy: e0,

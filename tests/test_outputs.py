@@ -189,3 +189,22 @@ def test_unspecified_velocities_follow_the_given_ones():
     assert res["vb.vx"].values[0] == pytest.approx(1.0, abs=1e-9)
     assert res["vb.vy"].values[0] == pytest.approx(1.0, abs=1e-9)
     assert res["vb.wz"].values[0] == pytest.approx(2.0, abs=1e-9)
+
+
+def test_a_sensor_component_is_one_channel_named_after_the_sensor():
+    # The same quantities through full sensors and through one-component sensors, including a
+    # step channel (the pin's reaction, interpolated between mid-steps).
+    m = double_pendulum("ed", 0.01, 0.3)
+    m.sensor("joint_reaction", "pin_all", joint="knee")
+    m.sensor("joint_reaction", "pin_Fz", joint="knee", component="Fz")
+    m.sensor("energy", "kinetic", component="kinetic")
+    res = fd.simulate(m, output_dt=0.02)
+    assert "pin_Fz" in res and "pin_Fz.Fz" not in res and res["pin_Fz"].attrs["units"] == "N"
+    np.testing.assert_array_equal(res["pin_Fz"].values, res["pin_all.Fz"].values)
+    np.testing.assert_array_equal(res["kinetic"].values, res["e.kinetic"].values)
+    m.sensor("energy", "wrong", component="Fz")
+    with pytest.raises(
+        fd.ModelError,
+        match=r"sensors\[\d+\]\.component: `Fz` is not a component of sensor `wrong`; it has kinetic",
+    ):
+        fd.simulate(m)

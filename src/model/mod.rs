@@ -791,27 +791,64 @@ impl Load {
 }
 
 /// A named quantity recorded during the run. Each sensor gives one or more channels named
-/// `<sensor>.<component>`.
+/// `<sensor>.<component>`, or with `component` just that one, named `<sensor>` (e.g.
+/// `{type: beam_section, name: beam_mid_F1, beam: beam, eta: 0.5, component: F1}`).
 #[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum Sensor {
     /// `.x .y .z`, m.
-    NodePosition { name: String, node: String },
+    NodePosition {
+        name: String,
+        node: String,
+        /// Keep only this component, as one channel named after the sensor.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        component: Option<String>,
+    },
     /// Displacement from the initial position: `.x .y .z`, m.
-    NodeDisplacement { name: String, node: String },
+    NodeDisplacement {
+        name: String,
+        node: String,
+        /// Keep only this component, as one channel named after the sensor.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        component: Option<String>,
+    },
     /// Rotation vector from the initial orientation `.x .y .z` (rad) and the triad matrix
     /// entries `.R11` … `.R33`.
-    NodeRotation { name: String, node: String },
+    NodeRotation {
+        name: String,
+        node: String,
+        /// Keep only this component, as one channel named after the sensor.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        component: Option<String>,
+    },
     /// Velocity `.vx .vy .vz` (m/s) and angular velocity `.wx .wy .wz` (rad/s), inertial frame.
-    NodeVelocity { name: String, node: String },
+    NodeVelocity {
+        name: String,
+        node: String,
+        /// Keep only this component, as one channel named after the sensor.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        component: Option<String>,
+    },
     /// A joint's relative coordinates and their rates: `.phi .phi_rate` (rad, rad/s) and/or
     /// `.delta .delta_rate` (m, m/s).
-    JointCoordinate { name: String, joint: String },
+    JointCoordinate {
+        name: String,
+        joint: String,
+        /// Keep only this component, as one channel named after the sensor.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        component: Option<String>,
+    },
     /// Reaction on node2 at the joint point: inertial components `.Fx .Fy .Fz` (N) and
     /// `.Mx .My .Mz` (N·m), the same in the joint frame `.F1 .F2 .F3 .M1 .M2 .M3` (axis 3 along
     /// the joint's axis), and the constraint violation `.violation` (largest |C| of the
     /// joint's rows: m for points, 1 for directions).
-    JointReaction { name: String, joint: String },
+    JointReaction {
+        name: String,
+        joint: String,
+        /// Keep only this component, as one channel named after the sensor.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        component: Option<String>,
+    },
     /// Driving force `.force` (N, a prescribed Δ) or torque `.torque` (N·m, a prescribed φ),
     /// and the work `.work` it has done. `coordinate` (`delta` or `phi`) picks the drive of a
     /// joint that has two.
@@ -820,9 +857,17 @@ pub enum Sensor {
         joint: String,
         #[serde(default, skip_serializing_if = "Option::is_none")]
         coordinate: Option<String>,
+        /// Keep only this component, as one channel named after the sensor.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        component: Option<String>,
     },
     /// `.kinetic .potential .total .drive_work .external_work .damper_work .numerical_dissipation`, J.
-    Energy { name: String },
+    Energy {
+        name: String,
+        /// Keep only this component, as one channel named after the sensor.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        component: Option<String>,
+    },
     /// At a station of a beam (`eta`: fraction of its length, or `s`: arc length): sectional forces
     /// `.F1 .F2 .F3` (N) and moments `.M1 .M2 .M3` (N·m) in the deformed section frame (axis 1
     /// along the beam), strains `.e1 .g2 .g3` and curvatures `.k1 .k2 .k3` (1/m) relative to the
@@ -839,15 +884,46 @@ pub enum Sensor {
         /// Arc length from the start, m, in the reference configuration.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         s: Option<f64>,
+        /// Keep only this component, as one channel named after the sensor.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        component: Option<String>,
     },
     /// A beam's own `.kinetic` and `.strain` energy, J.
-    BeamEnergy { name: String, beam: String },
+    BeamEnergy {
+        name: String,
+        beam: String,
+        /// Keep only this component, as one channel named after the sensor.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        component: Option<String>,
+    },
     /// Total linear momentum `.px .py .pz` (N·s) and angular momentum about the origin
     /// `.Hx .Hy .Hz` (N·m·s), inertial frame.
-    Momentum { name: String },
+    Momentum {
+        name: String,
+        /// Keep only this component, as one channel named after the sensor.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        component: Option<String>,
+    },
 }
 
 impl Sensor {
+    /// The one component asked for, if any.
+    pub fn component(&self) -> Option<&str> {
+        match self {
+            Sensor::NodePosition { component, .. }
+            | Sensor::NodeDisplacement { component, .. }
+            | Sensor::NodeRotation { component, .. }
+            | Sensor::NodeVelocity { component, .. }
+            | Sensor::JointCoordinate { component, .. }
+            | Sensor::JointReaction { component, .. }
+            | Sensor::DriveForce { component, .. }
+            | Sensor::BeamSection { component, .. }
+            | Sensor::BeamEnergy { component, .. }
+            | Sensor::Energy { component, .. }
+            | Sensor::Momentum { component, .. } => component.as_deref(),
+        }
+    }
+
     pub fn name(&self) -> &str {
         match self {
             Sensor::NodePosition { name, .. }
@@ -859,8 +935,8 @@ impl Sensor {
             | Sensor::DriveForce { name, .. }
             | Sensor::BeamSection { name, .. }
             | Sensor::BeamEnergy { name, .. }
-            | Sensor::Energy { name }
-            | Sensor::Momentum { name } => name,
+            | Sensor::Energy { name, .. }
+            | Sensor::Momentum { name, .. } => name,
         }
     }
 }
