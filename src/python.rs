@@ -171,6 +171,25 @@ impl PySimulation {
     fn t(&self) -> f64 {
         self.sim.state.t
     }
+    /// Size of the compiled model: nodes, joint coordinates, constraint equations (drives
+    /// included), beam elements, global unknowns of the Newton system.
+    #[getter]
+    fn size<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let sys = &self.sim.system;
+        let d = PyDict::new(py);
+        d.set_item("nodes", sys.layout.n_nodes)?;
+        d.set_item("coordinates", sys.layout.n_coords)?;
+        d.set_item("constraints", sys.layout.n_rows)?;
+        d.set_item("beam_elements", sys.beams.len())?;
+        d.set_item("unknowns", sys.layout.n_unknowns())?;
+        Ok(d)
+    }
+
+    /// The last step taken, s (0 before the first).
+    #[getter]
+    fn last_dt(&self) -> f64 {
+        self.sim.stats.last_dt
+    }
     #[getter]
     fn t_end(&self) -> f64 {
         self.sim.settings.t_end

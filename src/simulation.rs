@@ -46,6 +46,8 @@ pub struct RunStats {
     /// Smallest and largest step taken, s.
     pub dt_smallest: f64,
     pub dt_largest: f64,
+    /// The last step taken.
+    pub last_dt: f64,
 }
 
 impl Default for RunStats {
@@ -66,6 +68,7 @@ impl Default for RunStats {
             linear_solves: 0,
             dt_smallest: f64::INFINITY,
             dt_largest: 0.0,
+            last_dt: 0.0,
         }
     }
 }
@@ -496,6 +499,7 @@ impl Simulation {
         self.stats.steps += 1;
         self.stats.dt_smallest = self.stats.dt_smallest.min(h);
         self.stats.dt_largest = self.stats.dt_largest.max(h);
+        self.stats.last_dt = h;
         let e_f = self.energy();
         self.energy_scale = self
             .energy_scale

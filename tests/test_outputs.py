@@ -208,3 +208,34 @@ def test_a_sensor_component_is_one_channel_named_after_the_sensor():
         match=r"sensors\[\d+\]\.component: `Fz` is not a component of sensor `wrong`; it has kinetic",
     ):
         fd.simulate(m)
+
+
+def test_cli_info_check_plot_and_compare(tmp_path):
+    def cli(*args):
+        return subprocess.run(
+            [sys.executable, "-m", "flexdyn.cli", *map(str, args)],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+
+    model = tmp_path / "pendulum.yaml"
+    double_pendulum("ed", 0.01, 0.2).to_yaml(model)
+    info = cli("info", model)
+    assert info.returncode == 0, info.stderr
+    # Two bars (12 unknowns) and the revolute's angle; a universal joint (4 equations) and a
+    # revolute (5, and 1 defining its angle): 3 degrees of freedom, 2 + 1 as a mechanism.
+    assert "nodes       2" in info.stdout and "constraints 10 equations" in info.stdout, info.stdout
+    assert "DOFs        3 free" in info.stdout, info.stdout
+    assert cli("check", model).returncode == 0
+    runs = []
+    for scheme in ("ep", "ed"):
+        out = tmp_path / f"{scheme}.nc"
+        assert cli("run", model, "--scheme", scheme, "-o", out).returncode == 0
+        runs.append(out)
+    p = cli("plot", runs[0], "knee_angle", "-o", tmp_path / "a.png")
+    assert p.returncode == 0 and (tmp_path / "a.png").stat().st_size > 1000, p.stderr
+    p = cli("compare", *runs, "--sensors", "knee_angle.phi", "e.total", "-o", tmp_path / "c.pdf")
+    assert p.returncode == 0 and (tmp_path / "c.pdf").read_bytes().startswith(b"%PDF"), p.stderr
+    bad = cli("plot", runs[0], "nope", "-o", tmp_path / "b.png")
+    assert bad.returncode == 2 and "no channel or sensor `nope`" in bad.stderr

@@ -389,7 +389,12 @@ class Model:
         return self
 
     def to_yaml(self, path: str | Path | None = None) -> str:
-        text = yaml.safe_dump(json.loads(_core.parse_json(self.to_json())), sort_keys=False)
+        """The model as a YAML model file (validated first; what was given, defaults left
+        out; short lists on one line)."""
+        self.validate()
+        text = yaml.safe_dump(
+            self.data, sort_keys=False, default_flow_style=None, allow_unicode=True, width=100
+        )
         if path is not None:
             Path(path).write_text(text)
         return text

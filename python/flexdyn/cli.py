@@ -1,5 +1,5 @@
-"""The `flexdyn` command: run a model (dynamic or static), list its natural frequencies,
-validate it, or print the model-file schema."""
+"""The `flexdyn` command: run a model (dynamic or static), plot and compare results, describe or
+check a model, list its natural frequencies, or print the model-file schema."""
 
 from __future__ import annotations
 
@@ -74,16 +74,86 @@ def _modes(args) -> int:
     return 0
 
 
-def _validate(args) -> int:
+def _compiled(path):
+    """The model file loaded and compiled (every check a run makes before its first step)."""
+    import json
+
     from .builder import load
 
+    m = load(path)
+    return m, _core.Simulation(json.dumps(m.to_dict()))
+
+
+def _validate(args) -> int:
     try:
-        m = load(args.model)
-    except _core.ModelError as e:
+        m, sim = _compiled(args.model)
+    except (_core.ModelError, _core.SolverError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
+    for w in sim.warnings:
+        print(f"warning: {w}", file=sys.stderr)
     print(f"ok: {m!r}")
     return 0
+
+
+def _info(args) -> int:
+    try:
+        m, sim = _compiled(args.model)
+    except (_core.ModelError, _core.SolverError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    d, n = m.data, sim.size
+    joints: dict[str, int] = {}
+    for j in d.get("joints", []):
+        joints[j["type"]] = joints.get(j["type"], 0) + 1
+    s = d.get("simulation", {})
+    print(f"model `{d.get('name', '')}`")
+    print(f"  bodies      {len(d.get('bodies', []))}")
+    beams = ", ".join(
+        f"{b['name']} ({b.get('elements', 1)}×p{b.get('order', 3)})" for b in d.get("beams", [])
+    )
+    print(f"  beams       {len(d.get('beams', []))}: {beams or '-'}; {n['beam_elements']} elements")
+    print(
+        f"  joints      {len(d.get('joints', []))}: "
+        + (", ".join(f"{k} {v}" for k, v in joints.items()) or "-")
+    )
+    print(f"  nodes       {n['nodes']} (6 unknowns each), joint coordinates {n['coordinates']}")
+    print(f"  constraints {n['constraints']} equations (drives included)")
+    print(f"  DOFs        {6 * n['nodes'] + n['coordinates'] - n['constraints']} free")
+    print(f"  unknowns    {n['unknowns']} in the Newton system ({sim.scheme.upper()} layout)")
+    print(f"  sensors     {len(d.get('sensors', []))} giving {len(sim.channel_names)} channels")
+    control = s.get("step_control", "adaptive")
+    steps = f"tolerance {s.get('tolerance', 1e-3):g}" if control == "adaptive" else f"dt {sim.dt:g} s"
+    print(f"  run         {sim.scheme.upper()}, t_end {sim.t_end:g} s, {control} steps ({steps})")
+    return 0
+
+
+def _plot(args) -> int:
+    from .plots import plot
+
+    try:
+        out = plot(args.results, args.sensors, args.output, labels=args.labels, title=args.title)
+    except (KeyError, FileNotFoundError, ValueError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    print(f"wrote {out}")
+    return 0
+
+
+def _with(args, **fields):
+    for k, v in fields.items():
+        setattr(args, k, v)
+    return args
+
+
+def _plot_split(args) -> int:
+    """`flexdyn plot A.nc [B.nc …] CHANNEL …`: the leading arguments ending in .nc are files."""
+    files = [a for a in args.results if a.endswith(".nc")]
+    channels = [a for a in args.results if not a.endswith(".nc")]
+    if not files or not channels:
+        print("error: give one or more results files (.nc) and then channels or sensors", file=sys.stderr)
+        return 2
+    return _plot(_with(args, results=files, sensors=channels))
 
 
 def main(argv=None) -> int:
@@ -105,9 +175,28 @@ def main(argv=None) -> int:
     md.add_argument("-n", "--count", type=int, default=10, help="number of modes (default 10)")
     md.add_argument("--no-preload", action="store_true", help="linearize about the initial configuration")
     md.set_defaults(func=_modes)
-    v = sub.add_parser("validate", help="check a model file")
-    v.add_argument("model")
-    v.set_defaults(func=_validate)
+    for name in ("check", "validate"):
+        v = sub.add_parser(name, help="check a model file (everything a run checks before its first step)")
+        v.add_argument("model")
+        v.set_defaults(func=_validate)
+    i = sub.add_parser("info", help="describe a model: bodies, beams, joints, DOFs, constraints")
+    i.add_argument("model")
+    i.set_defaults(func=_info)
+    pl = sub.add_parser("plot", help="plot channels of one or more results files against time")
+    pl.add_argument("results", nargs="+", help="results files (.nc), then the channels or sensors")
+    pl.add_argument(
+        "-o", "--output", default="plot.png", help="figure file: .png, .svg or .pdf (default plot.png)"
+    )
+    pl.add_argument("--labels", nargs="+")
+    pl.add_argument("--title")
+    pl.set_defaults(func=_plot_split)
+    cp = sub.add_parser("compare", help="overlay results files (first solid, second dashed)")
+    cp.add_argument("results", nargs="+", help="results files (.nc)")
+    cp.add_argument("--sensors", nargs="+", required=True, help="channels or sensors to compare")
+    cp.add_argument("-o", "--output", default="compare.png", help="figure file: .png, .svg or .pdf")
+    cp.add_argument("--labels", nargs="+")
+    cp.add_argument("--title")
+    cp.set_defaults(func=lambda a: _plot(_with(a, sensors=a.sensors)))
     s = sub.add_parser("schema", help="print the JSON Schema of model files")
     s.set_defaults(func=lambda a: print(_core.schema()) or 0)
     args = p.parse_args(argv)

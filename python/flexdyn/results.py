@@ -81,11 +81,19 @@ def _dataset(times, values, names, units, attrs, dim="time", dim_units="s") -> x
     return xr.Dataset(data, coords={dim: (dim, times, {"units": dim_units})}, attrs=attrs)
 
 
-def _progress(t, t_end, start):
+def _progress(sim, start):
+    """One line on stderr: simulated time, step size, Newton iterations per step, wall time and
+    the estimated time left."""
+    t, t_end = sim.t, sim.t_end
     frac = t / t_end if t_end > 0 else 1.0
     bar = "#" * int(30 * frac)
+    wall = time.perf_counter() - start
+    left = wall * (1 - frac) / frac if frac > 0 else float("nan")
+    s = sim.stats
+    per_step = s["newton_iterations"] / max(s["steps"], 1)
     sys.stderr.write(
-        f"\r[{bar:<30}] {100 * frac:5.1f}%  t = {t:.4g} s  wall {time.perf_counter() - start:.1f} s"
+        f"\r[{bar:<30}] {100 * frac:5.1f}%  t = {t:.4g} s  dt = {sim.last_dt:.2e} s  "
+        f"{per_step:.1f} it/step  wall {wall:.1f} s  left ~{left:.0f} s "
     )
     sys.stderr.flush()
 
@@ -160,12 +168,15 @@ def simulate(
                 if sim.is_static:
                     sim.solve_static()
                 else:
-                    sim.advance_to(sim.t + CHUNK_STEPS * sim.dt)
+                    # Chunks of CHUNK_STEPS·dt (memory), or 1 % of the run when a progress line
+                    # is shown, so it moves.
+                    chunk = CHUNK_STEPS * sim.dt
+                    sim.advance_to(sim.t + (min(chunk, 0.01 * sim.t_end) if progress else chunk))
             except _core.SolverError as e:
                 error = e
             drain()
             if progress:
-                _progress(sim.t, sim.t_end, start)
+                _progress(sim, start)
             if error is not None:
                 break
     except KeyboardInterrupt:
