@@ -654,7 +654,8 @@ impl Simulation {
     /// `h·(0.8/e)^(1/q)` within the growth and shrink limits (DESIGN 8.6), with q the indicator's
     /// observed order in h — nominally 2, but ED's jump energy steepens to q ≈ 4 as ωh nears 1
     /// on a fast mode, where a fixed exponent would alternate between too long and rejected
-    /// steps. A step right after a rejection does not grow.
+    /// steps. A step right after a rejection does not grow, nor one that would grow by less
+    /// than 25 %.
     fn adaptive_step(&mut self) -> Result<(), StepFailure> {
         let set = &self.settings;
         let (dt_min, dt_max) = (set.dt_min(), set.dt_max());
@@ -696,6 +697,13 @@ impl Simulation {
                         }
                         self.accept(state, report, h);
                         let factor = if rejected { factor.min(1.0) } else { factor };
+                        // Keep h through small increases: an unchanged step keeps modified
+                        // Newton's factors valid (the Newton matrix depends on h).
+                        let factor = if (1.0..1.25).contains(&factor) {
+                            1.0
+                        } else {
+                            factor
+                        };
                         self.h_next = (h * factor).clamp(dt_min, dt_max);
                         return Ok(());
                     }

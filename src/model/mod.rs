@@ -999,7 +999,9 @@ pub struct SimulationSettings {
     #[serde(default = "default_max_iter")]
     pub max_newton_iterations: u32,
     /// Modified Newton: reuse the LU factors (across steps of the same size too) while the
-    /// residual falls fast, refactoring as soon as it does not.
+    /// residual falls fast, refactoring as soon as it does not — about 2× faster; the step
+    /// converges linearly to `newton_tol` instead of overshooting it quadratically, so energy
+    /// identities hold to ~1e-9 rather than ~1e-12 of E.
     #[serde(default)]
     pub modified_newton: bool,
     /// `adaptive` steps (the default; `dt` is the first) chosen by a local error indicator
