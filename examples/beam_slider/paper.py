@@ -20,9 +20,10 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-import flexdyn as fd  # noqa: E402
-from build import MODELS, beam_slider  # noqa: E402
-from flexdyn.plots import plot  # noqa: E402
+from build import MODELS, beam_slider
+
+import flexdyn as fd
+from flexdyn.plots import plot
 
 L = 2.4  # beam length, m: Δ = L·(η − 0.25), so case 2's force per unit η is L·F
 
@@ -80,7 +81,7 @@ def peak_times(t, x, count=3, separation=0.3):
 
 def high_frequency_rms(t, x, window=0.05):
     """RMS of what a moving average over `window` s removes."""
-    n = max(int(round(window / np.median(np.diff(t)))), 1)
+    n = max(round(window / np.median(np.diff(t))), 1)
     smooth = np.convolve(x, np.ones(n) / n, mode="same")
     return float(np.sqrt(np.mean((x - smooth)[n:-n] ** 2)))
 
@@ -96,9 +97,11 @@ def claims(r: dict) -> str:
     rows = [
         (
             "7.1, fig. 9: case 1 tip displacement has very significant high-frequency content",
-            "RMS content above 20 Hz (50 ms moving average removed): case 1 "
-            f"{high_frequency_rms(t, c1['beam_tip_u2'].values) * 1e3:.2f} mm, case 2 "
-            f"{high_frequency_rms(c2['time'].values, c2['beam_tip_u2'].values) * 1e3:.2f} mm",
+            (
+                "RMS content above 20 Hz (50 ms moving average removed): case 1 "
+                f"{high_frequency_rms(t, c1['beam_tip_u2'].values) * 1e3:.2f} mm, case 2 "
+                f"{high_frequency_rms(c2['time'].values, c2['beam_tip_u2'].values) * 1e3:.2f} mm"
+            ),
         ),
         (
             "7.1, fig. 11: mid-span axial force about 20× larger in case 1",
@@ -120,13 +123,17 @@ def claims(r: dict) -> str:
         ),
         (
             "7.1, fig. 14: driving force peak about 6× larger in case 1",
-            f"{ratio(c1, c2, 'drive_force'):.1f}× as force along the beam (N); "
-            f"{peak(c1['drive_force_eta'].values) / (L * peak(c2['drive_force'].values)):.1f}× as force per unit η",
+            (
+                f"{ratio(c1, c2, 'drive_force'):.1f}× as force along the beam (N); "
+                f"{peak(c1['drive_force_eta'].values) / (L * peak(c2['drive_force'].values)):.1f}× as force per unit η"
+            ),
         ),
         (
             "7.2, figs. 15–16: case 1 displacements and rotations much larger, tip twist up to 2.5×",
-            f"tip twist {ratio(t1, t2, 'beam_tip_phi1'):.1f}×, out-of-plane tip displacement "
-            f"{ratio(t1, t2, 'beam_tip_u3'):.1f}×",
+            (
+                f"tip twist {ratio(t1, t2, 'beam_tip_phi1'):.1f}×, out-of-plane tip displacement "
+                f"{ratio(t1, t2, 'beam_tip_u3'):.1f}×"
+            ),
         ),
         (
             "7.2, fig. 17: mid-span axial forces differ in amplitude and frequency",
@@ -148,8 +155,10 @@ def claims(r: dict) -> str:
         ),
         (
             "7.2, fig. 21: driving force peak about 5× larger in case 1",
-            f"{ratio(t1, t2, 'drive_force'):.1f}× as force along the beam; "
-            f"{peak(t1['drive_force_eta'].values) / (L * peak(t2['drive_force'].values)):.1f}× per unit η",
+            (
+                f"{ratio(t1, t2, 'drive_force'):.1f}× as force along the beam; "
+                f"{peak(t1['drive_force_eta'].values) / (L * peak(t2['drive_force'].values)):.1f}× per unit η"
+            ),
         ),
     ]
     lines = ["| the paper says | flexdyn computes |", "| --- | --- |"]
