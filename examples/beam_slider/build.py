@@ -69,7 +69,9 @@ def beam_slider(case: int, twisted: bool = False, elements: int = 12, t_end: flo
         m.node("sleeve", [0.6, 0, 0])
         if twisted:
             m.screw("slide", b, "sleeve", axis=[1, 0, 0], pitch=1 / TWIST, drive_delta=DELTA)
-            m.universal("link", "sleeve", top, axis1=[1, 0, 0], axis2=[0, 0, 1])
+            # Cross axes i2 (sleeve) and i3 (driver): the rotation about the beam axis i1 is
+            # transmitted, "the sole relative rotation of the screw joint".
+            m.universal("link", "sleeve", top, axis1=[0, 1, 0], axis2=[0, 0, 1])
         else:
             m.prismatic("slide", b, "sleeve", axis=[1, 0, 0], drive=DELTA)
             m.revolute("link", "sleeve", top, axis=[0, 0, 1])
