@@ -81,6 +81,8 @@ def beam_slider(case: int, twisted: bool = False, elements: int = 12, t_end: flo
         m.sensor("beam_section", f"beam_tip_{name}", beam="beam", eta=1.0, component=comp)
     for comp in ("F1", "F3", "M1", "M3"):
         m.sensor("beam_section", f"beam_mid_{comp}", beam="beam", eta=0.5, component=comp)
+    # The root section's rotation about the beam axis: the tip's minus it is the elastic twist.
+    m.sensor("beam_section", "beam_root_phi1", beam="beam", eta=0.0, component="phi1")
     m.sensor("beam_section", "driver_mid_F1", beam="driver", eta=0.5, component="F1")
     m.sensor("energy", "energy")
     m.settings(
