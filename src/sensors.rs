@@ -204,10 +204,11 @@ impl Channels {
                 }
                 Sensor::JointCoordinate { joint, .. } => {
                     for co in &sys.joint(joint).expect("validated").coords {
-                        let (names, units): ([String; 2], [&'static str; 2]) = if co.name == "phi" {
-                            (["phi".into(), "phi_rate".into()], ["rad", "rad/s"])
+                        let names: [String; 2] = [co.name.into(), format!("{}_rate", co.name)];
+                        let units = if co.name.starts_with("phi") {
+                            ["rad", "rad/s"]
                         } else {
-                            (["delta".into(), "delta_rate".into()], ["m", "m/s"])
+                            ["m", "m/s"]
                         };
                         add(
                             &mut c,

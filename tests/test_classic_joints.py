@@ -354,3 +354,66 @@ def test_spring_table_errors():
         in msg
     )
     assert "joints[1].spring.table: joint `r2`: the force must not decrease as the coordinate grows" in msg
+
+
+def gimbal(scheme, k1=200.0, k2=50.0, c1=0.0, c2=0.0, t_end=2.0, spin=(0.1, 0, 0.2)):
+    """A disk on a universal joint to the ground (axis1 = z on the ground, axis2 = x on the
+    disk) with springs on both rotations, started turning about x and z (`spin`, rad/s)."""
+    m = fd.Model("gimbal")
+    m.node("disk", [0, 0, 0], velocity=[0, 0, 0], angular_velocity=list(spin))
+    m.rigid_body("disk_body", "disk", mass=5.0, inertia=[0.5, 0.3, 2.0])
+    m.universal(
+        "gimbal",
+        "ground",
+        "disk",
+        axis1=[0, 0, 1],
+        axis2=[1, 0, 0],
+        position=[0, 0, 0],
+        spring1={"stiffness": k1, "damping": c1},
+        spring2={"stiffness": k2, "damping": c2},
+    )
+    m.sensor("joint_coordinate", "g", joint="gimbal").sensor("energy", "e")
+    m.settings(scheme=scheme, step_control="fixed", dt=1e-3, t_end=t_end, newton_tol=1e-12)
+    return m
+
+
+@pytest.mark.parametrize("scheme", ["ep", "ed"])
+@pytest.mark.parametrize(
+    ("name", "spin", "k", "j"), [("phi1", (0, 0, 0.2), 200.0, 2.0), ("phi2", (0.1, 0, 0), 50.0, 0.5)]
+)
+def test_gimbal_angles_oscillate_at_sqrt_k_over_j(scheme, name, spin, k, j):
+    # φ1 turns the cross and disk about z (J = 2.0), φ2 the disk about x (J = 0.5). Started on
+    # one rotation alone, the other stays at rest (their coupling is ∝ φ̇1φ̇2): each is a
+    # linear oscillator up to O(φ²) ~ 4e-4 (0.02 rad amplitudes); the schemes' phase error over
+    # 2 s at ωh = 0.01 is ~(ωh)²ωt/12 ~ 2e-4 of the amplitude.
+    res = fd.simulate(gimbal(scheme, spin=spin))
+    t = res["time"].values
+    rate = max(spin)
+    w = np.sqrt(k / j)
+    amplitude = rate / w
+    assert np.abs(res[f"g.{name}"].values - amplitude * np.sin(w * t)).max() < 1e-3 * amplitude
+    assert res[f"g.{name}_rate"].values[0] == pytest.approx(rate, abs=1e-9)
+    other = "phi2" if name == "phi1" else "phi1"
+    assert np.abs(res[f"g.{other}"].values).max() < 1e-12
+    E = res["e.total"].values
+    if scheme == "ep":
+        assert np.abs(E - E[0]).max() < 1e-9 * E[0]
+    else:
+        assert np.all(np.diff(E) <= 1e-15 * E[0]) and E[-1] > 0.99 * E[0]
+
+
+def test_gimbal_dampers_take_the_energy_the_schemes_account_for():
+    res = fd.simulate(gimbal("ep", c1=2.0, c2=0.5, t_end=3.0))
+    E = res["e.total"].values
+    assert E[-1] < 0.2 * E[0]
+    assert np.abs(res["e.balance"].values).max() < 1e-9 * E[0]
+    assert res["e.damper_work"].values[-1] == pytest.approx(E[-1] - E[0], rel=1e-6)
+
+
+def test_gimbal_drive_must_start_at_zero():
+    m = gimbal("ed")
+    m.data["joints"][0]["drive1"] = "0.1 + t"
+    with pytest.raises(
+        fd.ModelError, match=r"joints\[0\]\.drive1: joint `gimbal`: a universal joint's drive must start at 0"
+    ):
+        fd.simulate(m)

@@ -283,7 +283,23 @@ class Model:
             frame=frame,
         )
 
-    def universal(self, name, node1, node2, axis1, axis2, position=None, frame=None):
+    def universal(
+        self,
+        name,
+        node1,
+        node2,
+        axis1,
+        axis2,
+        position=None,
+        frame=None,
+        spring1=None,
+        spring2=None,
+        drive1=None,
+        drive2=None,
+    ):
+        """A universal joint (a gimbal): `axis1` fixed to node1, `axis2` to node2. Its rotations
+        φ1 (the cross about axis1) and φ2 (node2 about axis2) take springs/dampers
+        (`spring1={"stiffness": k, "damping": c}`) and drives like a revolute's φ."""
         return self._joint(
             "universal",
             name,
@@ -293,6 +309,10 @@ class Model:
             axis2=_vec(axis2),
             position=_vec(position) if position is not None else None,
             frame=frame,
+            spring1=spring1,
+            spring2=spring2,
+            drive1=drive1,
+            drive2=drive2,
         )
 
     def clamp(self, name, node1, node2):

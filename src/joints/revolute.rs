@@ -63,10 +63,16 @@ pub fn axis_rate<T: Real>(s: &JointState<T>, at: &[Attachment; 2], out: &mut Row
     add_rotation_pair(&mut out[row + 1], dot_h(s, at, 2, 1), T::one());
 }
 
+/// Which products define an angle: `C = c_s g_{a b} sin φ + c_c g_{c d} cos φ = 0`, with
+/// `g_αβ = e_αᵏ·e_βˡ` — (a, b, c_s) and (c, d, c_c).
+pub type AngleTerms = ((usize, usize, f64), (usize, usize, f64));
+
+/// The revolute's φ about e₃ᵏ: `g₁₁ sin φ + g₁₂ cos φ = 0` (eq. 17).
+pub const REVOLUTE_PHI: AngleTerms = ((0, 0, 1.0), (0, 1, 1.0));
+
 /// The row defining φ (coordinate `qi`) about e₃ᵏ: `g₁₁ sin φ + g₁₂ cos φ = 0` (eq. 17).
 pub fn phi_value<T: Real>(s: &JointState<T>, at: &[Attachment; 2], qi: usize) -> T {
-    let phi = s.q[qi];
-    dot_value(s, at, 0, 0) * phi.sin() + dot_value(s, at, 0, 1) * phi.cos()
+    angle_value(s, at, qi, REVOLUTE_PHI)
 }
 
 /// Eq. (22): sin_m, cos_m are mean values, φ_m the mean angle, S_m = sin(Δφ/2)/(Δφ/2).
@@ -77,22 +83,59 @@ pub fn phi_gradient<T: Real>(
     qi: usize,
     row: &mut [T],
 ) {
+    angle_gradient(si, sf, at, qi, REVOLUTE_PHI, row)
+}
+
+pub fn phi_rate<T: Real>(s: &JointState<T>, at: &[Attachment; 2], qi: usize, row: &mut [T]) {
+    angle_rate(s, at, qi, REVOLUTE_PHI, row)
+}
+
+/// An angle row of the form of eq. (17) over any pair of products (see [`AngleTerms`]).
+pub fn angle_value<T: Real>(
+    s: &JointState<T>,
+    at: &[Attachment; 2],
+    qi: usize,
+    g: AngleTerms,
+) -> T {
+    let ((a, b, cs), (c, d, cc)) = g;
+    let phi = s.q[qi];
+    dot_value(s, at, a, b) * phi.sin() * cs + dot_value(s, at, c, d) * phi.cos() * cc
+}
+
+/// Its exact discrete gradient, eq. (22) generalized.
+pub fn angle_gradient<T: Real>(
+    si: &JointState<T>,
+    sf: &JointState<T>,
+    at: &[Attachment; 2],
+    qi: usize,
+    g: AngleTerms,
+    row: &mut [T],
+) {
+    let ((a, b, cs), (c, d, cc)) = g;
     let (pi, pf) = (si.q[qi], sf.q[qi]);
     let sin_m = (pi.sin() + pf.sin()) * 0.5;
     let cos_m = (pi.cos() + pf.cos()) * 0.5;
     let phi_m = (pi + pf) * 0.5;
     let s_m = sinc_half(pf - pi);
-    let (h11, g11) = dot_mid(si, sf, at, 0, 0);
-    let (h12, g12) = dot_mid(si, sf, at, 0, 1);
-    add_rotation_pair(row, h11.scale(sin_m) + h12.scale(cos_m), T::one());
-    row[12 + qi] = (g11 * phi_m.cos() - g12 * phi_m.sin()) * s_m;
+    let (h1, g1) = dot_mid(si, sf, at, a, b);
+    let (h2, g2) = dot_mid(si, sf, at, c, d);
+    add_rotation_pair(row, h1.scale(sin_m * cs) + h2.scale(cos_m * cc), T::one());
+    row[12 + qi] = (g1 * phi_m.cos() * cs - g2 * phi_m.sin() * cc) * s_m;
 }
 
-pub fn phi_rate<T: Real>(s: &JointState<T>, at: &[Attachment; 2], qi: usize, row: &mut [T]) {
+pub fn angle_rate<T: Real>(
+    s: &JointState<T>,
+    at: &[Attachment; 2],
+    qi: usize,
+    g: AngleTerms,
+    row: &mut [T],
+) {
+    let ((a, b, cs), (c, d, cc)) = g;
     let phi = s.q[qi];
-    let h = dot_h(s, at, 0, 0).scale(phi.sin()) + dot_h(s, at, 0, 1).scale(phi.cos());
+    let h = dot_h(s, at, a, b).scale(phi.sin() * cs) + dot_h(s, at, c, d).scale(phi.cos() * cc);
     add_rotation_pair(row, h, T::one());
-    row[12 + qi] = dot_value(s, at, 0, 0) * phi.cos() - dot_value(s, at, 0, 1) * phi.sin();
+    row[12 + qi] =
+        dot_value(s, at, a, b) * phi.cos() * cs - dot_value(s, at, c, d) * phi.sin() * cc;
 }
 
 /// The relative rotation of side l about e₃ᵏ, for initial values: φ = atan2(e₂ᵏ·e₁ˡ, e₁ᵏ·e₁ˡ).

@@ -1,10 +1,22 @@
 //! Universal joint: coincident points and `e₃ᵏ · e₃ˡ = 0` (eq. 11 with α = β = 3); the
 //! attachment triads carry `axis1` and `axis2` as their third unit vectors. Discrete force:
 //! eq. (16), `F = ±sλ_m h_m` with `h_m = ẽ_mᵏ e_mˡ`.
+//!
+//! Its two rotations are coordinates (a gimbal's angles), each defined by a row of the form of
+//! eq. (17) with its exact discrete gradient eq. (22): φ₁ turns the cross (and `axis2`) about
+//! `axis1`, `e₃ˡ = cos φ₁ e₁ᵏ + sin φ₁ e₂ᵏ`; φ₂ turns side l about `axis2`,
+//! `e₃ᵏ = cos φ₂ e₁ˡ − sin φ₂ e₂ˡ`. The triads are set so both are zero initially
+//! (`e₁ᵏ = axis2`, `e₁ˡ = axis1`); springs, dampers and drives act on them as on a revolute's φ.
 
 use super::kinematics::*;
+use super::revolute::{angle_gradient, angle_rate, angle_value, AngleTerms};
 use super::{Attachment, ConstraintLaw, JointState, Rows};
 use crate::scalar::Real;
+
+/// φ₁: `g₁₃ sin φ₁ − g₂₃ cos φ₁ = 0`.
+const PHI1: AngleTerms = ((0, 2, 1.0), (1, 2, -1.0));
+/// φ₂: `g₃₁ sin φ₂ + g₃₂ cos φ₂ = 0`.
+const PHI2: AngleTerms = ((2, 0, 1.0), (2, 1, 1.0));
 
 #[derive(Clone, Debug)]
 pub struct Universal {
@@ -13,11 +25,16 @@ pub struct Universal {
 
 impl ConstraintLaw for Universal {
     fn n_rows(&self) -> usize {
-        4
+        6
+    }
+    fn n_coords(&self) -> usize {
+        2
     }
     fn value<T: Real>(&self, s: &JointState<T>, out: &mut [T]) {
         points_value(s, &self.at, out);
         out[3] = dot_value(s, &self.at, 2, 2);
+        out[4] = angle_value(s, &self.at, 0, PHI1);
+        out[5] = angle_value(s, &self.at, 1, PHI2);
     }
     fn discrete_gradient<T: Real>(
         &self,
@@ -28,10 +45,14 @@ impl ConstraintLaw for Universal {
         points_gradient(si, sf, &self.at, out, 0);
         let (hm, _) = dot_mid(si, sf, &self.at, 2, 2); // eq. (15)
         add_rotation_pair(&mut out[3], hm, T::one());
+        angle_gradient(si, sf, &self.at, 0, PHI1, &mut out[4]);
+        angle_gradient(si, sf, &self.at, 1, PHI2, &mut out[5]);
     }
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
         points_rate(s, &self.at, out, 0);
         add_rotation_pair(&mut out[3], dot_h(s, &self.at, 2, 2), T::one());
+        angle_rate(s, &self.at, 0, PHI1, &mut out[4]);
+        angle_rate(s, &self.at, 1, PHI2, &mut out[5]);
     }
 }
 

@@ -502,7 +502,7 @@ pub struct CoordinateSpec<'a> {
 
 impl CoordinateSpec<'_> {
     pub fn is_rotation(&self) -> bool {
-        self.name == "phi"
+        self.name.starts_with("phi")
     }
 }
 
@@ -560,6 +560,18 @@ pub struct UniversalJoint {
     pub axis1: Vec3,
     /// Unit vector fixed to node2, orthogonal to `axis1`.
     pub axis2: Vec3,
+    /// Prescribed rotation φ1(t) of the cross about `axis1`, rad (must be 0 at t = 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drive1: Option<TimeFunctionSpec>,
+    /// Spring and damper on φ1 (a gimbal's first rotation).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spring1: Option<SpringDamper>,
+    /// Prescribed rotation φ2(t) of node2 about `axis2`, rad (must be 0 at t = 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drive2: Option<TimeFunctionSpec>,
+    /// Spring and damper on φ2.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spring2: Option<SpringDamper>,
 }
 
 #[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
@@ -668,6 +680,10 @@ impl Joint {
         }
         match self {
             Joint::Revolute(j) => vec![c("phi", &j.drive, &j.spring, "drive", "spring")],
+            Joint::Universal(j) => vec![
+                c("phi1", &j.drive1, &j.spring1, "drive1", "spring1"),
+                c("phi2", &j.drive2, &j.spring2, "drive2", "spring2"),
+            ],
             Joint::Prismatic(j) => vec![c("delta", &j.drive, &j.spring, "drive", "spring")],
             Joint::Cylindrical(j) => vec![
                 c(

@@ -97,7 +97,7 @@ pub struct JointCoordinate {
 fn law_rows(j: &model::Joint) -> usize {
     match j {
         model::Joint::Spherical(_) => 3,
-        model::Joint::Universal(_) => 4,
+        model::Joint::Universal(_) => 6,
         model::Joint::Screw(_) => 7,
         model::Joint::Clamp(_)
         | model::Joint::Revolute(_)
@@ -625,11 +625,25 @@ impl System {
                     })
                 }
                 model::Joint::Universal(u) => {
+                    if let Some(k) = initial.iter().position(|v| *v != 0.0) {
+                        return Err(err(
+                            format!("{path}.drive{}", k + 1),
+                            format!("joint `{}`: a universal joint's drive must start at 0 (it gives {:.6} rad at t = 0); offset the function or turn the model to that angle", u.name, initial[k]),
+                        ));
+                    }
                     let p = u.position.map(at_point).unwrap_or(default_pos);
+                    let (a1, a2) = (along(u.axis1), along(u.axis2));
+                    // e₁ᵏ = axis2 and e₁ˡ = axis1, so that φ1 = φ2 = 0 initially.
+                    let triad = |e3: V3<f64>, e1: V3<f64>| {
+                        let e3 = e3.scale_f(1.0 / e3.norm());
+                        let e1 = e1 - e3.scale_f(e1.dot(&e3));
+                        let e1 = e1.scale_f(1.0 / e1.norm());
+                        M3::from_cols(e1, e3.cross(&e1), e3)
+                    };
                     JointLaw::Universal(Universal {
                         at: [
-                            attach(&sides[0], p, triad_from_axis(along(u.axis1))),
-                            attach(&sides[1], p, triad_from_axis(along(u.axis2))),
+                            attach(&sides[0], p, triad(a1, a2)),
+                            attach(&sides[1], p, triad(a2, a1)),
                         ],
                     })
                 }
