@@ -64,6 +64,7 @@ def vdtr(
     lag_stiffness: float = 1e5,
     hub_height: float = 1.0,
     tolerance: float = 1e-2,
+    tilt: bool = True,
 ):
     """The VDTR model; `t_end` can be shortened (the conversion still takes `conversion_time`)."""
     blade = blade_section or section(8.0, 1.0e5, 1.0e6, 1.0e5)
@@ -82,7 +83,7 @@ def vdtr(
         "nacelle",
         axis=[0, 1, 0],
         position=[0, 0, 0],
-        drive=f"0.25*pi*(1 - sin(2*pi*(t/{period} + 0.25)))",
+        drive=f"0.25*pi*(1 - sin(2*pi*(t/{period} + 0.25)))" if tilt else "0",
     )
     # Shaft (a beam along i3), spun at Ω relative to the nacelle.
     m.beam("shaft", [0, 0, 0], [0, 0, z], elements=4, section=stiff, e2=[1, 0, 0])
