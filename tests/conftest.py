@@ -30,3 +30,16 @@ def track(model: fd.Model, *names):
 @pytest.fixture
 def tmp_nc(tmp_path):
     return tmp_path / "out.nc"
+
+
+def example_module(folder: str, name: str = "build"):
+    """An example's Python script imported as a module under a name of its own (the
+    examples' scripts share the name `build.py`)."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parent.parent / "examples" / folder / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(f"example_{folder}_{name}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module

@@ -3,7 +3,6 @@
 hold there are checked. The full runs and figures: `python examples/beam_slider/paper.py`."""
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -11,9 +10,13 @@ import pytest
 
 import flexdyn as fd
 
+from conftest import example_module
+
+_build = example_module("beam_slider")
+MODELS = _build.MODELS
+beam_slider = _build.beam_slider
+
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples" / "beam_slider"
-sys.path.insert(0, str(EXAMPLES))
-from build import MODELS, beam_slider
 
 
 def peak(res, channel):

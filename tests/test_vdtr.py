@@ -2,7 +2,6 @@
 its loads pass the sanity checks the issue names. The 20 s conversion: `flexdyn run
 examples/vdtr/vdtr.yaml` (minutes)."""
 
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -10,8 +9,10 @@ import pytest
 
 import flexdyn as fd
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "examples" / "vdtr"))
-from build import vdtr
+from conftest import example_module
+
+_build = example_module("vdtr")
+vdtr = _build.vdtr
 
 
 @pytest.fixture(scope="module")
