@@ -95,7 +95,9 @@ def vdtr(
     # Swashplate: held on the shaft at a fixed η (sliding screw: it turns with the shaft), and
     # by a second point with a free η.
     m.node("swash", [0, 0, 0.6 * z]).rigid_body("swash_body", "swash", mass=20.0, inertia=[1, 1, 2])
-    m.node("swash_lower", [0, 0, 0.5 * z])
+    # (0.45, not 0.5: a contact point resting on an element boundary of the shaft would
+    # rebuild the Newton pattern at every tiny oscillation across it.)
+    m.node("swash_lower", [0, 0, 0.45 * z])
     m.clamp("swash_rigid", "swash", "swash_lower")
     m.sliding_joint("swash_screw", "shaft", "swash", eta=fd.drive("0.6"), kind="screw")
     m.sliding_joint("swash_slide", "shaft", "swash_lower")
