@@ -75,21 +75,27 @@ def _modes(args) -> int:
 
 
 def _compiled(path):
-    """The model file loaded and compiled (every check a run makes before its first step)."""
+    """The model file loaded and compiled (every check a run makes before its first step), or
+    None after printing why it cannot be."""
     import json
 
     from .builder import load
 
-    m = load(path)
-    return m, _core.Simulation(json.dumps(m.to_dict()))
+    try:
+        m = load(path)
+        return m, _core.Simulation(json.dumps(m.to_dict()))
+    except (_core.ModelError, _core.SolverError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return None
+    except OSError as e:
+        print(f"error: cannot read the model file: {e}", file=sys.stderr)
+        return None
 
 
 def _validate(args) -> int:
-    try:
-        m, sim = _compiled(args.model)
-    except (_core.ModelError, _core.SolverError) as e:
-        print(f"error: {e}", file=sys.stderr)
+    if (compiled := _compiled(args.model)) is None:
         return 2
+    m, sim = compiled
     for w in sim.warnings:
         print(f"warning: {w}", file=sys.stderr)
     print(f"ok: {m!r}")
@@ -97,11 +103,9 @@ def _validate(args) -> int:
 
 
 def _info(args) -> int:
-    try:
-        m, sim = _compiled(args.model)
-    except (_core.ModelError, _core.SolverError) as e:
-        print(f"error: {e}", file=sys.stderr)
+    if (compiled := _compiled(args.model)) is None:
         return 2
+    m, sim = compiled
     d, n = m.data, sim.size
     joints: dict[str, int] = {}
     for j in d.get("joints", []):
