@@ -140,8 +140,9 @@ impl Simulation {
         let mut warnings = Vec::new();
         if !statics && settings.preload {
             // Start from the static equilibrium under the loads and gravity at t = 0 (drives
-            // at their t = 0 values): the dynamic run then begins without the transient of a
-            // load appearing on an unloaded structure.
+            // at their t = 0 values) and, for initial spins, their steady-rotation inertia:
+            // the dynamic run then begins without the transient of a load (or a rotor's
+            // centrifugal stretch) appearing on an unloaded structure.
             let mut static_model = model.clone();
             static_model.simulation.analysis = Analysis::Static;
             let mut pre = Simulation::with_scheme(&static_model, Scheme::Ep)?;
@@ -154,9 +155,19 @@ impl Simulation {
                     ..e
                 })
             })?;
-            for (n, p) in state.nodes.iter_mut().zip(&pre.state.nodes) {
+            for ((n, p), spin) in state
+                .nodes
+                .iter_mut()
+                .zip(&pre.state.nodes)
+                .zip(&system.node_spin)
+            {
                 n.x = p.x;
                 n.r = p.r;
+                // A spinning node's velocities follow it to its steady-spin position.
+                if let Some(spin) = spin {
+                    n.v = spin.omega.cross(&(n.x - spin.center));
+                    n.w = n.r.tmul_v(&spin.omega);
+                }
             }
             state.coords.clone_from(&pre.state.coords);
             state.history.clone_from(&pre.state.history);

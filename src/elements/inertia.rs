@@ -8,12 +8,22 @@
 //! `Δ = h(V_j + V_f)/2`, plus the j-equations `m(v_j − v_i) = h/6 P_j` and
 //! `J(W_j − W_i) + ½ r̃_j J(W_j + W_i) = h/6 (I − r̃_j/2) P_j`, `r_j = h/6 (W_j − W_f)`.
 //! Rows are premultiplied by `(I − r̃/2)⁻¹/h` so that every other kernel adds plain forces.
-//! In statics only the weight remains.
+//! In statics the weight remains and, for a node given an initial spin, the inertia of that
+//! steady rotation (centrifugal force and gyroscopic moment): the static solution is then the
+//! rotor's equilibrium in the frame turning with it, from which it spins steadily.
 
 use super::{add3, v3, Kernel, StepCtx};
-use crate::rotation::inv_i_minus_half_tilde;
+use crate::rotation::{cayley, inv_i_minus_half_tilde};
 use crate::scalar::Real;
 use crate::vec3::{M3, V3};
+
+/// A steady rotation at angular velocity `omega` (inertial frame, rad/s) about the axis through
+/// `center`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SteadySpin {
+    pub omega: V3<f64>,
+    pub center: V3<f64>,
+}
 
 #[derive(Clone, Debug)]
 pub struct NodeInertia {
@@ -21,6 +31,8 @@ pub struct NodeInertia {
     pub mass: f64,
     /// Material inertia about the centre of mass (the node).
     pub inertia: M3<f64>,
+    /// The node's initial spin: in statics, the inertia of that steady rotation.
+    pub spin: Option<SteadySpin>,
     unknowns: Vec<usize>,
 }
 
@@ -29,6 +41,7 @@ impl NodeInertia {
         node: usize,
         mass: f64,
         inertia: M3<f64>,
+        spin: Option<SteadySpin>,
         layout: &crate::system::layout::Layout,
     ) -> Self {
         let mut unknowns: Vec<usize> = (0..6).map(|k| layout.node_delta(node) + k).collect();
@@ -39,6 +52,7 @@ impl NodeInertia {
             node,
             mass,
             inertia,
+            spin,
             unknowns,
         }
     }
@@ -61,12 +75,28 @@ impl Kernel for NodeInertia {
 
     fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], res: &mut [T]) {
         if let Some(lf) = ctx.statics {
-            // Statics: the weight only.
             add3(
                 res,
                 0,
                 V3::<T>::from_f64(ctx.gravity.scale_f(-self.mass * lf)),
             );
+            if let Some(spin) = &self.spin {
+                // Steady rotation of the end state: m a = m Ω×(Ω×(x − c)), and the rate of
+                // the angular momentum R J Rᵀ Ω, Ω×(R J Rᵀ Ω), in the material rows (Rᵀ·):
+                // W×(J W), W = Rᵀ Ω. Times the load factor (Ω² ramps with the loads).
+                let ni = &ctx.state.nodes[self.node];
+                let omega = V3::<T>::from_f64(spin.omega);
+                let arm = V3::<T>::from_f64(ni.x - spin.center) + v3(y, 0);
+                add3(
+                    res,
+                    0,
+                    omega.cross(&omega.cross(&arm)).scale_f(self.mass * lf),
+                );
+                let rf = M3::<T>::from_f64(&ni.r).mul_m(&cayley(&v3(y, 3)));
+                let w = rf.tmul_v(&omega);
+                let j = M3::<T>::from_f64(&self.inertia);
+                add3(res, 3, w.cross(&j.mul_v(&w)).scale_f(lf));
+            }
             return;
         }
         let h = ctx.h;
@@ -123,13 +153,19 @@ mod tests {
             history: vec![],
         };
         // Time steps of both schemes, and static solves (EP layout).
-        for (scheme, statics) in [
-            (Scheme::Ep, None),
-            (Scheme::Ed, None),
-            (Scheme::Ep, Some(0.6)),
+        // Static solves also with a steady spin (centrifugal and gyroscopic terms).
+        let spin = SteadySpin {
+            omega: V3([0.3, -1.2, 2.0]),
+            center: V3([0.5, 0.1, -0.4]),
+        };
+        for (scheme, statics, spin) in [
+            (Scheme::Ep, None, None),
+            (Scheme::Ed, None, None),
+            (Scheme::Ep, Some(0.6), None),
+            (Scheme::Ep, Some(0.6), Some(spin)),
         ] {
             let layout = Layout::new(scheme, 1, 0, 0);
-            let k = NodeInertia::new(0, 1.7, jm, &layout);
+            let k = NodeInertia::new(0, 1.7, jm, spin, &layout);
             let ctx = StepCtx {
                 layout,
                 h: 0.01,
@@ -146,6 +182,65 @@ mod tests {
             let e = tangent_error(&k, &ctx, &y);
             // Central differences with step 1e-6: truncation ~1e-12·|J'''|, round-off ~1e-10·|R|/|J|.
             assert!(e < 1e-7, "{scheme:?}: {e}");
+        }
+    }
+
+    /// The steady-spin terms of a static solve are the limit, as h → 0, of the time step's
+    /// inertia rows over an exact steady rotation: same sign, same form (a test against the
+    /// dynamic kernel, which the energy tests verify independently).
+    #[test]
+    fn steady_spin_inertia_is_the_limit_of_a_time_step_of_steady_rotation() {
+        let jm = M3([[2.0, 0.1, -0.2], [0.1, 3.0, 0.3], [-0.2, 0.3, 4.0]]);
+        let spin = SteadySpin {
+            omega: V3([0.3, -1.2, 2.0]),
+            center: V3([0.5, 0.1, -0.4]),
+        };
+        let (x, r) = (
+            V3([0.1, 0.2, 0.3]),
+            crate::rotation::exp_map(&V3([0.4, -0.2, 0.9])),
+        );
+        let node = NodeState {
+            x,
+            r,
+            v: spin.omega.cross(&(x - spin.center)),
+            w: r.tmul_v(&spin.omega),
+        };
+        let state = State {
+            t: 0.0,
+            nodes: vec![node],
+            coords: vec![],
+            coord_rates: vec![],
+            lambda: vec![],
+            history: vec![],
+        };
+        let layout = Layout::new(Scheme::Ep, 1, 0, 0);
+        let k = NodeInertia::new(0, 1.7, jm, Some(spin), &layout);
+        let h = 1e-5;
+        let ctx = |statics| StepCtx {
+            layout,
+            h,
+            t_i: 0.0,
+            t_f: h,
+            s: 1.0,
+            state: &state,
+            gravity: V3::zero(),
+            statics,
+        };
+        let mut steady = [0.0; 6];
+        k.residual(&ctx(Some(1.0)), &[0.0; 6], &mut steady);
+        // The exact rotation over h: x_f − c = Q (x − c), R_f = Q R = R cay(r).
+        let q = crate::rotation::exp_map(&spin.omega.scale_f(h));
+        let dx = q.mul_v(&(x - spin.center)) - (x - spin.center);
+        let rc = crate::rotation::cayley_log(&r.transpose().mul_m(&q).mul_m(&r)).unwrap();
+        let mut y = [0.0; 6];
+        dx.write_to(&mut y[..3]);
+        rc.write_to(&mut y[3..]);
+        let mut step = [0.0; 6];
+        k.residual(&ctx(None), &y, &mut step);
+        let scale = steady.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+        for (a, b) in steady.iter().zip(&step) {
+            // The step's rows are centred mid-step: they differ by O(hΩ) relative.
+            assert!((a - b).abs() < 1e-4 * scale, "{steady:?} vs {step:?}");
         }
     }
 }

@@ -11,7 +11,7 @@ use crate::beam::element::BeamElement;
 use crate::beam::line_load::FollowerLineLoad;
 use crate::beam::path::{ArcMap, BeamPath};
 use crate::elements::coordinate::{CoordinateDrive, CoordinateSpring};
-use crate::elements::inertia::NodeInertia;
+use crate::elements::inertia::{NodeInertia, SteadySpin};
 use crate::elements::loads::{LoadKind, PointLoad};
 use crate::joints::sliding::{ContactLaw, SlidingJoint, SlidingKind};
 use crate::joints::{
@@ -140,6 +140,8 @@ pub struct System {
     /// Per node whose mass was moved to an internal centre-of-mass node: that node and the
     /// offset (carrier triad).
     pub cm_node: Vec<Option<(usize, V3<f64>)>>,
+    /// Per node: the initial spin it was given, if any.
+    pub node_spin: Vec<Option<SteadySpin>>,
 }
 
 fn orientation(o: &model::Orientation) -> M3<f64> {
@@ -225,7 +227,9 @@ impl System {
                     .collect(),
             );
         }
-        // Initial spins: the listed nodes and beams turn rigidly about their axis.
+        // Initial spins: the listed nodes and beams turn rigidly about their axis. Each node
+        // keeps its spin: static solves (and the pre-load) add its steady-rotation inertia.
+        let mut node_spin: Vec<Option<SteadySpin>> = vec![None; nodes.len()];
         for spin in &model.initial_spins {
             let axis = V3(spin.axis);
             let omega = axis.scale_f(spin.rate / axis.norm());
@@ -242,6 +246,7 @@ impl System {
                 n.v = omega.cross(&(n.x - center));
                 n.w = n.r.tmul_v(&omega);
                 velocity_given[a] = true;
+                node_spin[a] = Some(SteadySpin { omega, center });
             }
         }
         let beam_mesh::Lumped {
@@ -278,6 +283,7 @@ impl System {
                 velocity_given.push(velocity_given[a]);
                 mass.push(b.mass);
                 inertia.push(j);
+                node_spin.push(node_spin[a]);
                 cm_links.push((b.name.clone(), a, nodes.len() - 1, c));
             }
         }
@@ -301,6 +307,7 @@ impl System {
                 w: na.w,
             });
             velocity_given.push(velocity_given[a]);
+            node_spin.push(node_spin[a]);
             mass.push(m);
             inertia.push(j_cm);
             mass[a] = 0.0;
@@ -381,7 +388,7 @@ impl System {
         }
         let inertias: Vec<NodeInertia> = (0..nodes.len())
             .filter(|&a| mass[a] > 0.0 || inertia[a].max_abs() > 0.0)
-            .map(|a| NodeInertia::new(a, mass[a], inertia[a], &layout))
+            .map(|a| NodeInertia::new(a, mass[a], inertia[a], node_spin[a], &layout))
             .collect();
 
         let mut joints = Vec::new();
@@ -840,6 +847,7 @@ impl System {
             length_ref,
             force_ref,
             velocity_given,
+            node_spin,
             cm_node,
         })
     }
