@@ -2,6 +2,8 @@
 //! sparse LU's symbolic analysis reused, and the bookkeeping of the energy identity (work of
 //! drives, loads, dampers and constraints, and ED's jump dissipation).
 
+pub mod predictor;
+
 use crate::elements::{Kernel, StepCtx};
 use crate::model::SimulationSettings;
 use crate::rotation::{cayley, check_step_rotation, orthonormalize};
@@ -236,7 +238,8 @@ impl Integrator {
         masks
     }
 
-    /// Predictor: constant velocity; multipliers from the last step.
+    /// Predictor: each node's velocity turning with its angular velocity (see [`predictor`]),
+    /// joint coordinates at constant rate; multipliers from the last step.
     pub fn predict(&mut self, sys: &System, state: &State, h: f64) {
         let layout = sys.layout;
         let ed = layout.ed();
@@ -244,8 +247,9 @@ impl Integrator {
         self.y.iter_mut().for_each(|v| *v = 0.0);
         for (a, n) in state.nodes.iter().enumerate() {
             let d = layout.node_delta(a);
-            n.v.scale_f(h).write_to(&mut self.y[d..]);
-            n.w.scale_f(h).write_to(&mut self.y[d + 3..]);
+            let (dx, r) = predictor::turning_increment(&n.r, n.v, n.w, h);
+            dx.write_to(&mut self.y[d..]);
+            r.write_to(&mut self.y[d + 3..]);
             if ed {
                 let j = layout.node_jump(a);
                 n.v.scale_f(h).write_to(&mut self.y[j..]);
