@@ -11,6 +11,8 @@ use crate::vec3::{M3, V3};
 #[derive(Clone, Debug)]
 enum Source {
     Position(usize),
+    /// A node relative to a reference node (node, reference), in the reference's triad.
+    Relative(usize, usize),
     Displacement(usize),
     Rotation(usize),
     Velocity(usize),
@@ -164,6 +166,15 @@ impl Channels {
                     &["x", "y", "z"],
                     &["m"],
                     Source::Position(node(n)),
+                ),
+                Sensor::RelativePosition {
+                    node: n, reference, ..
+                } => add(
+                    &mut c,
+                    name,
+                    &["x1", "x2", "x3", "r1", "r2", "r3"],
+                    &["m"],
+                    Source::Relative(node(n), node(reference)),
                 ),
                 Sensor::NodeDisplacement { node: n, .. } => add(
                     &mut c,
@@ -355,6 +366,15 @@ impl Channels {
         for (src, k) in &self.sources {
             let v = match src {
                 Source::Position(a) => state.nodes[*a].x.0[*k],
+                Source::Relative(a, b) => {
+                    let (n, r) = (&state.nodes[*a], &state.nodes[*b]);
+                    let d = r.r.tmul_v(&(n.x - r.x));
+                    if *k < 3 {
+                        d.0[*k]
+                    } else {
+                        (d.norm_sq() - d.0[k - 3].powi(2)).max(0.0).sqrt()
+                    }
+                }
                 Source::Displacement(a) => state.nodes[*a].x.0[*k] - sys.initial.nodes[*a].x.0[*k],
                 Source::Rotation(a) => {
                     let r = &state.nodes[*a].r;

@@ -242,3 +242,27 @@ def test_cli_info_check_plot_and_compare(tmp_path):
     assert missing.returncode == 2 and "cannot read the model file" in missing.stderr
     bad = cli("plot", runs[0], "nope", "-o", tmp_path / "b.png")
     assert bad.returncode == 2 and "no channel or sensor `nope`" in bad.stderr
+
+
+def test_relative_position_is_measured_in_the_reference_triad():
+    # A crank turning about a tilted axis carries an arm point 0.5 m along its axis 1 and
+    # 0.2 m along axis 3: in the crank's triad it stays there however the crank turns, and
+    # its distance from the crank's axis 3 is 0.5 m, from axis 1 0.2 m.
+    axis = np.array([0.0, 0.6, 0.8])
+    m = fd.Model("crank")
+    # Triad turned about x so that its axis 3 is the revolute's axis.
+    m.node("crank", [1.0, 2.0, 3.0], rotation_vector=[-np.arcsin(0.6), 0, 0])
+    m.rigid_body("crank_body", "crank", mass=2.0, inertia=[0.1, 0.1, 0.2])
+    tip = np.array([1.0, 2.0, 3.0]) + 0.5 * np.array([1, 0, 0]) + 0.2 * axis
+    m.node("tip", tip.tolist()).rigid_body("tip_body", "tip", mass=0.5, inertia=[1e-3] * 3)
+    m.clamp("arm", "crank", "tip")
+    m.revolute("pin", "ground", "crank", axis=axis.tolist(), position=[1.0, 2.0, 3.0], drive="3*t")
+    m.sensor("relative_position", "rel", node="tip", reference="crank")
+    m.sensor("node_position", "abs", node="tip")
+    m.settings(scheme="ed", t_end=1.0, dt=1e-2, step_control="fixed")
+    r = fd.simulate(m)
+    for c, value in (("x1", 0.5), ("x2", 0.0), ("x3", 0.2), ("r3", 0.5), ("r1", 0.2)):
+        # The clamp holds to Newton's tolerance (~1e-12 m).
+        assert np.abs(r[f"rel.{c}"].values - value).max() < 1e-9, c
+    assert np.ptp(r["abs.x"].values) > 0.9  # the tip did turn (diameter 1 m)
+    assert np.abs(r["rel.r2"].values - np.hypot(0.5, 0.2)).max() < 1e-9

@@ -820,6 +820,17 @@ pub enum Sensor {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         component: Option<String>,
     },
+    /// Position of `node` relative to the `reference` node, in the reference's triad:
+    /// `.x1 .x2 .x3` (m), and `.r1 .r2 .r3`, the distance from the reference's axis 1, 2 or 3
+    /// through it (m) — e.g. a blade tip's radius from the hub's spin axis.
+    RelativePosition {
+        name: String,
+        node: String,
+        reference: String,
+        /// Keep only this component, as one channel named after the sensor.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        component: Option<String>,
+    },
     /// Displacement from the initial position: `.x .y .z`, m.
     NodeDisplacement {
         name: String,
@@ -927,6 +938,7 @@ impl Sensor {
     pub fn component(&self) -> Option<&str> {
         match self {
             Sensor::NodePosition { component, .. }
+            | Sensor::RelativePosition { component, .. }
             | Sensor::NodeDisplacement { component, .. }
             | Sensor::NodeRotation { component, .. }
             | Sensor::NodeVelocity { component, .. }
@@ -943,6 +955,7 @@ impl Sensor {
     pub fn name(&self) -> &str {
         match self {
             Sensor::NodePosition { name, .. }
+            | Sensor::RelativePosition { name, .. }
             | Sensor::NodeDisplacement { name, .. }
             | Sensor::NodeRotation { name, .. }
             | Sensor::NodeVelocity { name, .. }

@@ -586,6 +586,12 @@ impl Model {
                 | Sensor::NodeVelocity { node, .. } => {
                     node_ref(&mut c, format!("{p}.node"), node, false)
                 }
+                Sensor::RelativePosition {
+                    node, reference, ..
+                } => {
+                    node_ref(&mut c, format!("{p}.node"), node, false);
+                    node_ref(&mut c, format!("{p}.reference"), reference, false);
+                }
                 Sensor::JointCoordinate { joint, .. }
                 | Sensor::JointReaction { joint, .. }
                 | Sensor::DriveForce { joint, .. } => match joint_names.get(joint.as_str()) {
