@@ -189,6 +189,9 @@ def vdtr(
     m.sensor("relative_position", "rotor_radius", node="b1_blade.15", reference="hub", component="r3")
     m.sensor("drive_force", "jackscrew_force", joint="b1_nut", component="force")
     m.sensor("joint_coordinate", "nut_s", joint="b1_nut", component="s")
+    # Axial forces: the outboard blade between the nut and its first contact, the torque tube.
+    m.sensor("beam_section", "blade1_axial_force", beam="b1_blade", eta=0.1, component="F1")
+    m.sensor("beam_section", "tube1_axial_force", beam="b1_tube", eta=0.5, component="F1")
     m.sensor("drive_force", "spin_torque", joint="spin", component="torque")
     m.sensor("drive_force", "tilt_torque", joint="tilt", component="torque")
     m.sensor("energy", "energy")
