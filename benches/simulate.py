@@ -1,6 +1,6 @@
 """Times whole simulations and prints steps, Newton iterations, factorizations and wall time.
 
-python benches/simulate.py            # the examples and a chain of pendulums, EP and ED
+python benches/simulate.py            # the examples and a chain of pendulums, EP and ED; the VDTR
 """
 
 import time
@@ -79,6 +79,8 @@ def main():
     for n in (4, 16, 64):
         for scheme in ("ep", "ed"):
             run(f"chain of {n}", chain(n), scheme=scheme, dt=1e-3, t_end=1.0)
+    # The tilt-rotor's first 2 s (the whole 20 s: examples/vdtr/paper.py prints its cost).
+    run("VDTR 2 s of 20", fd.load(ROOT / "examples" / "vdtr" / "vdtr.yaml"), t_end=2.0)
 
 
 if __name__ == "__main__":
