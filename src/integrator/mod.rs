@@ -95,6 +95,8 @@ pub struct Integrator {
     factored_for: Option<f64>,
     /// Whether the last step converged, so its factors may start the next one.
     last_converged: bool,
+    /// Whether the current Newton iteration started from an earlier step's factors.
+    started_stale: bool,
     /// Linear solves (one per Newton update).
     pub solves: usize,
 }
@@ -166,6 +168,7 @@ impl Integrator {
             modified_newton: false,
             factored_for: None,
             last_converged: false,
+            started_stale: false,
             solves: 0,
         }
     }
@@ -363,7 +366,17 @@ impl Integrator {
             statics: None,
         };
         self.predict(sys, state, h);
-        let report = self.newton(sys, &ctx)?;
+        let report = match self.newton(sys, &ctx) {
+            // Modified Newton started from an earlier step's factors and failed: the tangent
+            // had moved on (a rotor turns its tangent by Ωh every step). Retry this step with
+            // fresh factors before anyone shrinks it.
+            Err(e) if e.retry && self.started_stale => {
+                self.factored_for = None;
+                self.predict(sys, state, h);
+                self.newton(sys, &ctx)?
+            }
+            result => result?,
+        };
         Ok(self.commit(sys, &ctx, report))
     }
 
@@ -474,6 +487,9 @@ impl Integrator {
                 }
             };
             let reuse = factors_fit && fast && self.factored_for == Some(ctx.h);
+            if it == 0 {
+                self.started_stale = reuse;
+            }
             self.assemble(sys, ctx, !reuse);
             if ctx.is_static() {
                 self.regularize_static(sys, ctx);
