@@ -32,3 +32,17 @@ pub struct State {
     /// element knows its offset. Committed at the end of every step, never at the j-state.
     pub history: Vec<f64>,
 }
+
+impl State {
+    /// Nodes only, at t = 0: no joint coordinates, multipliers or element history.
+    pub fn of_nodes(nodes: Vec<NodeState>) -> State {
+        State {
+            t: 0.0,
+            nodes,
+            coords: vec![],
+            coord_rates: vec![],
+            lambda: vec![],
+            history: vec![],
+        }
+    }
+}

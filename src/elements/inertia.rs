@@ -144,14 +144,7 @@ mod tests {
             v: V3([1.0, -2.0, 0.5]),
             w: V3([0.3, 5.0, -1.0]),
         };
-        let state = State {
-            t: 0.0,
-            nodes: vec![node],
-            coords: vec![],
-            coord_rates: vec![],
-            lambda: vec![],
-            history: vec![],
-        };
+        let state = State::of_nodes(vec![node]);
         // Time steps of both schemes, and static solves (EP layout).
         // Static solves also with a steady spin (centrifugal and gyroscopic terms).
         let spin = SteadySpin {
@@ -205,14 +198,7 @@ mod tests {
             v: spin.omega.cross(&(x - spin.center)),
             w: r.tmul_v(&spin.omega),
         };
-        let state = State {
-            t: 0.0,
-            nodes: vec![node],
-            coords: vec![],
-            coord_rates: vec![],
-            lambda: vec![],
-            history: vec![],
-        };
+        let state = State::of_nodes(vec![node]);
         let layout = Layout::new(Scheme::Ep, 1, 0, 0);
         let k = NodeInertia::new(0, 1.7, jm, Some(spin), &layout);
         let h = 1e-5;
