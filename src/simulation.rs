@@ -195,8 +195,41 @@ impl Simulation {
             .collect();
         if !changed.is_empty() {
             let worst = change.iter().cloned().fold(0.0, f64::max);
+            // A drive already moving at t = 0 on a joint of an adjusted node makes the start
+            // impulsive: say which, since the fix is then the model's choice, not a slip.
+            let adjusted = |n: &str| {
+                (0..change.len()).any(|a| {
+                    system.velocity_given[a] && change[a] > 1e-9 * v_scale && {
+                        let name = &system.node_names[a];
+                        name == n || name.strip_prefix(n).is_some_and(|k| k.starts_with('.'))
+                    }
+                })
+            };
+            let moving: Vec<String> = model
+                .joints
+                .iter()
+                .filter(|j| {
+                    let (n1, n2) = j.nodes();
+                    adjusted(n1) || adjusted(n2)
+                })
+                .filter_map(|j| system.joint(j.name()))
+                .flat_map(|info| info.coords.iter().map(move |c| (info, c)))
+                .filter(|(_, c)| {
+                    c.drive
+                        .is_some_and(|d| system.drives[d].function.rate(0.0) != 0.0)
+                })
+                .map(|(info, c)| format!("`{}` ({})", info.name, c.name))
+                .collect();
+            let why = if moving.is_empty() {
+                "give consistent velocities to avoid this".to_string()
+            } else {
+                format!(
+                    "the drive(s) of {} start moving at t = 0, so the start is impulsive; give the nodes those velocities, or start the drives from rest, to avoid this",
+                    moving.join(", ")
+                )
+            };
             warnings.push(format!(
-                "initial velocities of node(s) {} were adjusted to satisfy the joints' velocity constraints (largest change {worst:.4} m/s, or rad/s times the model size); give consistent velocities to avoid this",
+                "initial velocities of node(s) {} were adjusted to satisfy the joints' velocity constraints (largest change {worst:.4} m/s, or rad/s times the model size); {why}",
                 changed.join(", ")
             ));
         }

@@ -142,7 +142,7 @@ def test_inconsistent_given_velocities_are_projected_and_reported():
     m.sensor("node_velocity", "v", node="bob")
     res = fd.simulate(m, scheme="ed", step_control="fixed", dt=1e-3, t_end=0.01)
     (w,) = res.attrs["warnings_list"]
-    assert "`bob`" in w and "adjusted" in w
+    assert "`bob`" in w and "adjusted" in w and "give consistent velocities" in w
     # The kinetic-energy-closest admissible velocity keeps the tangential part only.
     assert res["v.vx"].values[0] == pytest.approx(0.0, abs=1e-12)
     assert res["v.vz"].values[0] == pytest.approx(-2.0 * 2.0 / (2.0 + 0.01), rel=1e-9)
