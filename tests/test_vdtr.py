@@ -112,17 +112,16 @@ def test_paper_script_draws_the_figures_and_checks_the_statements(retracting):
     assert "jackscrew" in table and "Coriolis" in table
 
 
-def test_blade_count_and_radius_are_parameters():
-    # A four-bladed rotor of 4.5 m: each jackscrew carries its blade's centrifugal force
-    # 8 kg/m × Ω² × (4.5² − 2²)/2 = 26 kN from the steady-spin start (0.1 %: the stretch).
-    res = fd.simulate(
-        vdtr(blades=4, hover_radius=4.5, t_end=0.05, tilt=False, retraction=0.0),
-        step_control="fixed",
-        dt=1e-3,
-    )
-    centrifugal = 8.0 * OMEGA**2 * (4.5**2 - 2.0**2) / 2
+@pytest.mark.parametrize(("blades", "radius", "mesh"), [(4, 4.5, 1), (3, 5.0, 2)])
+def test_blade_count_radius_and_mesh_are_parameters(blades, radius, mesh):
+    # Four blades of 4.5 m, or the shipped rotor with every beam's elements doubled: each
+    # jackscrew carries its blade's centrifugal force 8 kg/m × Ω² × (R² − (R − 2.5)²)/2 from
+    # the steady-spin start (0.1 %: the stretch).
+    model = vdtr(blades=blades, hover_radius=radius, mesh=mesh, t_end=0.02, tilt=False, retraction=0.0)
+    res = fd.simulate(model, step_control="fixed", dt=1e-3)
+    centrifugal = 8.0 * OMEGA**2 * (radius**2 - (radius - 2.5) ** 2) / 2
     assert np.abs(res["jackscrew_force"].values) == pytest.approx(centrifugal, rel=1e-3)
-    assert res["rotor_radius"].values[0] == pytest.approx(4.5, abs=2e-3)
+    assert res["rotor_radius"].values[0] == pytest.approx(radius, abs=2e-3)
 
 
 def test_impulsive_start_of_the_retraction_is_named(retracting):

@@ -70,8 +70,10 @@ def vdtr(
     hub_height: float = 1.0,
     tolerance: float = 1e-3,
     tilt: bool = True,
+    mesh: int = 1,
 ):
-    """The VDTR model; `t_end` can be shortened (the conversion still takes `conversion_time`)."""
+    """The VDTR model; `t_end` can be shortened (the conversion still takes `conversion_time`);
+    `mesh` multiplies every beam's element count (a mesh-convergence check)."""
     blade = blade_section or section(8.0, 1.0e5, 1.0e6, 1.0e5)
     tube = section(3.0, 2.0e5, 2.0e5, 2.0e5, ea=2e8)
     screw = section(2.0, 5.0e4, 5.0e4, 5.0e4)
@@ -91,7 +93,7 @@ def vdtr(
         drive=f"0.25*pi*(1 - sin(2*pi*(t/{period} + 0.25)))" if tilt else "0",
     )
     # Shaft (a beam along i3), spun at Ω relative to the nacelle.
-    m.beam("shaft", [0, 0, 0], [0, 0, z], elements=4, section=stiff, e2=[1, 0, 0])
+    m.beam("shaft", [0, 0, 0], [0, 0, z], elements=4 * mesh, section=stiff, e2=[1, 0, 0])
     m.revolute("spin", "nacelle", "shaft.0", axis=[0, 0, 1], position=[0, 0, 0], drive=f"{omega}*t")
     # Gimbal and hub.
     m.node("hub", [0, 0, z]).rigid_body("hub_body", "hub", mass=50.0, inertia=[5, 5, 8])
@@ -140,17 +142,19 @@ def vdtr(
         )
         # Torque tube from the pitch bearing; jackscrew inside it from the same root node.
         m.node(f"{n}_root", at(r_root))
-        m.beam(f"{n}_tube", start_node=f"{n}_root", end=at(r_tube), elements=6, section=tube, e2=t)
+        m.beam(f"{n}_tube", start_node=f"{n}_root", end=at(r_tube), elements=6 * mesh, section=tube, e2=t)
         m.revolute(f"{n}_pitch", f"{n}_flap", f"{n}_root", axis=u, position=at(r_root))
-        m.beam(f"{n}_jackscrew", start_node=f"{n}_root", end=at(r_screw), elements=4, section=screw, e2=t)
+        m.beam(
+            f"{n}_jackscrew", start_node=f"{n}_root", end=at(r_screw), elements=4 * mesh, section=screw, e2=t
+        )
         # Outboard blade from the nut; two sliding screw contacts on the torque tube.
-        m.beam(f"{n}_blade", at(r_nut), at(hover_radius), elements=5, section=blade, e2=t)
+        m.beam(f"{n}_blade", at(r_nut), at(hover_radius), elements=5 * mesh, section=blade, e2=t)
         eta0 = (r_nut - r_root) / screw_len
         eta1 = eta0 - retraction / screw_len
         ramp = {"t": [0.0, conversion_time], "value": [eta0, eta1]}  # linear, then held
         m.sliding_joint(f"{n}_nut", f"{n}_jackscrew", f"{n}_blade.0", eta=fd.drive(ramp), kind="screw")
-        m.sliding_joint(f"{n}_contact1", f"{n}_tube", f"{n}_blade.2", kind="screw")
-        m.sliding_joint(f"{n}_contact2", f"{n}_tube", f"{n}_blade.4", kind="screw")
+        m.sliding_joint(f"{n}_contact1", f"{n}_tube", f"{n}_blade.{2 * mesh}", kind="screw")
+        m.sliding_joint(f"{n}_contact2", f"{n}_tube", f"{n}_blade.{4 * mesh}", kind="screw")
         # Pitch horn (on the tube root, ahead of the pitch axis) and pitch link from the
         # swashplate arm below it.
         m.node(f"{n}_horn", at(r_root, ahead=0.15))
@@ -161,11 +165,13 @@ def vdtr(
             f"{n}_link",
             start_node=f"{n}_arm",
             end=at(r_root, up=-0.05, ahead=0.15),
-            elements=1,
+            elements=mesh,
             section=link,
             e2=u,
         )
-        m.spherical(f"{n}_link_top", f"{n}_link.3", f"{n}_horn", position=at(r_root, up=-0.05, ahead=0.15))
+        m.spherical(
+            f"{n}_link_top", f"{n}_link.{3 * mesh}", f"{n}_horn", position=at(r_root, up=-0.05, ahead=0.15)
+        )
         rotor += [
             f"{n}_lag",
             f"{n}_flap",
@@ -179,15 +185,16 @@ def vdtr(
         ]
     m.initial_spin(rotor, axis=[0, 0, 1], rate=omega)
     # Sensors (fixed names).
+    tip = f"b1_blade.{15 * mesh}"
     for c, comp in (("x", "x"), ("y", "y"), ("z", "z")):
-        m.sensor("node_position", f"blade1_tip_{c}", node="b1_blade.15", component=comp)
+        m.sensor("node_position", f"blade1_tip_{c}", node=tip, component=comp)
     m.sensor("joint_coordinate", "gimbal_rot1", joint="gimbal", component="phi1")
     m.sensor("joint_coordinate", "gimbal_rot2", joint="gimbal", component="phi2")
     m.sensor("joint_coordinate", "pitch_rot", joint="b1_pitch", component="phi")
     m.sensor("joint_coordinate", "lag_rot", joint="b1_lag_hinge", component="phi")
     m.sensor("joint_coordinate", "flap_rot", joint="b1_flap_hinge", component="phi")
     # The blade tip's distance from the hub's spin axis (its axis 3).
-    m.sensor("relative_position", "rotor_radius", node="b1_blade.15", reference="hub", component="r3")
+    m.sensor("relative_position", "rotor_radius", node=tip, reference="hub", component="r3")
     m.sensor("drive_force", "jackscrew_force", joint="b1_nut", component="force")
     m.sensor("joint_coordinate", "nut_s", joint="b1_nut", component="s")
     # Axial forces: the outboard blade between the nut and its first contact, the torque tube.
