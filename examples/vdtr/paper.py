@@ -111,7 +111,7 @@ def claims(res: xr.Dataset) -> str:
                 "conversion, then the gimbal dampers decrease them"
             ),
             (
-                f"largest |φ1| per {width:g} s window (mrad, every other window): {env(gimbal)}; peak in the window from "
+                f"largest φ1 amplitude per {width:g} s window (mrad, every other window): {env(gimbal)}; peak in the window from "
                 f"t = {peak_at:.0f} s ({gimbal.max() * 1e3:.0f} mrad), {gimbal[-1] / gimbal.max():.2f} of it in "
                 f"the last; φ2 alike ({gimbal2.max() * 1e3:.0f} mrad peak). Gimbal dampers absorb "
                 f"{-res['energy.damper_work'].values[-1] / 1e3:.1f} kJ"
@@ -123,7 +123,7 @@ def claims(res: xr.Dataset) -> str:
                 "follows the gimbal"
             ),
             (
-                f"largest |pitch| per window (mrad): {env(pitch)}; correlation with the gimbal's envelope "
+                f"largest pitch amplitude per window (mrad): {env(pitch)}; correlation with the gimbal's envelope "
                 f"{np.corrcoef(pitch, gimbal)[0, 1]:.3f}, pitch/gimbal {np.min(pitch / gimbal):.2f}–"
                 f"{np.max(pitch / gimbal):.2f}"
             ),
@@ -131,7 +131,7 @@ def claims(res: xr.Dataset) -> str:
         (
             "fig. 28: lag motion appears undamped (no lag dampers)",
             (
-                f"largest |lag| per window (mrad): {env(lag)}. The lag hinges dissipate nothing, but the lag "
+                f"largest lag amplitude per window (mrad): {env(lag)}. The lag hinges dissipate nothing, but the lag "
                 f"motion here is mostly the forced response to the gimbal's tilting and falls with it "
                 f"(last/peak {lag[-1] / lag.max():.2f} vs the gimbal's {gimbal[-1] / gimbal.max():.2f}); "
                 f"ED's numerical dissipation over the run is "
@@ -141,7 +141,7 @@ def claims(res: xr.Dataset) -> str:
         (
             "fig. 29: the jackscrew carries the entire centrifugal force (no axial load in the torque tube)",
             (
-                f"mean |jackscrew force| / Σ m Ω² r of the outboard blade per window: "
+                f"mean jackscrew force magnitude / Σ m Ω² r of the outboard blade per window: "
                 f"{np.min(force / cf):.3f}–{np.max(force / cf):.3f}. The torque tube's axial force at mid-span "
                 f"is its own centrifugal load, {tube.min() / 1e3:.2f}–{tube.max() / 1e3:.2f} kN (window means) "
                 f"against {tube_own / 1e3:.2f} kN from its own 3 kg/m: none of the blade's"
