@@ -48,22 +48,8 @@ def heavy_top_model(at_pivot: bool):
 
 @pytest.mark.parametrize("scheme", ["ep", "ed"])
 def test_offset_centre_of_mass_equals_node_at_centre_of_mass(scheme):
-    a = fd.simulate(
-        heavy_top_model(at_pivot=True),
-        scheme=scheme,
-        step_control="fixed",
-        dt=1e-3,
-        t_end=1.0,
-        newton_tol=1e-13,
-    )
-    b = fd.simulate(
-        heavy_top_model(at_pivot=False),
-        scheme=scheme,
-        step_control="fixed",
-        dt=1e-3,
-        t_end=1.0,
-        newton_tol=1e-13,
-    )
+    run = {"scheme": scheme, "step_control": "fixed", "dt": 1e-3, "t_end": 1.0, "newton_tol": 1e-13}
+    a, b = (fd.simulate(heavy_top_model(at_pivot=p), **run) for p in (True, False))
     for c in ["R11", "R12", "R21", "R23", "R32", "R33"]:
         np.testing.assert_allclose(a[f"rot.{c}"].values, b[f"rot.{c}"].values, atol=1e-9)
     np.testing.assert_allclose(a["e.total"].values, b["e.total"].values, atol=1e-9)
