@@ -83,6 +83,15 @@ impl SpringLaw {
         }
     }
 
+    /// The size of the coordinate values the law refers to (its rest value, its table's
+    /// extent): its force is computed from differences of numbers of that size.
+    pub fn reference_magnitude(&self) -> f64 {
+        match self {
+            SpringLaw::Linear { rest, .. } => rest.abs(),
+            SpringLaw::Table { q, .. } => q.iter().fold(0.0f64, |m, v| m.max(v.abs())),
+        }
+    }
+
     pub fn energy(&self, x: f64) -> f64 {
         match self {
             SpringLaw::Linear { stiffness, rest } => 0.5 * stiffness * (x - rest).powi(2),

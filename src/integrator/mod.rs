@@ -2,7 +2,10 @@
 //! sparse LU's symbolic analysis reused, and the bookkeeping of the energy identity (work of
 //! drives, loads, dampers and constraints, and ED's jump dissipation).
 
+pub mod convergence;
 pub mod predictor;
+
+use convergence::{inf_norm, Measure};
 
 use crate::elements::{Kernel, StepCtx};
 use crate::model::SimulationSettings;
@@ -51,6 +54,17 @@ pub struct StepFailure {
     pub load_factor: Option<f64>,
 }
 
+/// A failure of the step in `ctx`.
+fn step_failure(ctx: &StepCtx, reason: String, retry: bool) -> StepFailure {
+    StepFailure {
+        t: ctx.t_i,
+        h: ctx.h,
+        reason,
+        retry,
+        load_factor: ctx.statics,
+    }
+}
+
 impl std::fmt::Display for StepFailure {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self.load_factor {
@@ -79,6 +93,9 @@ pub struct Integrator {
     line_load_pos: Vec<Vec<usize>>,
     y: Vec<f64>,
     res: Vec<f64>,
+    /// Per row: the sum of the magnitudes of every kernel's contribution to it (the forces
+    /// acting in a momentum equation), the scale its residual is judged against.
+    activity: Vec<f64>,
     pub tol: f64,
     /// Convergence on a small update (see `SimulationSettings::newton_increment_tol`).
     pub increment_tol: f64,
@@ -159,6 +176,7 @@ impl Integrator {
             line_load_pos,
             y: vec![0.0; n],
             res: vec![0.0; n],
+            activity: vec![0.0; n],
             tol: 1e-10,
             increment_tol: 0.0,
             max_iter: 20,
@@ -274,7 +292,7 @@ impl Integrator {
     /// (numeric only), solve, update. Returns the residual norm before the update.
     pub fn newton_iteration(&mut self, sys: &System, ctx: &StepCtx) -> Result<f64, String> {
         self.assemble(sys, ctx, true);
-        let (rn, _) = Self::inf_norm(&self.res);
+        let (rn, _) = inf_norm(&self.res);
         self.solve_update()?;
         Ok(rn)
     }
@@ -291,14 +309,17 @@ impl Integrator {
         Ok(())
     }
 
-    /// Assembles the residual (and the tangent values if asked) at the current unknowns.
+    /// Assembles the residual (and the tangent values if asked) at the current unknowns,
+    /// and each row's activity.
     pub fn assemble(&mut self, sys: &System, ctx: &StepCtx, with_jacobian: bool) {
         self.res.iter_mut().for_each(|r| *r = 0.0);
+        self.activity.iter_mut().for_each(|r| *r = 0.0);
         if with_jacobian {
             self.matrix.clear();
         }
         let y = &self.y;
         let res = &mut self.res;
+        let activity = &mut self.activity;
         let vals = &mut self.matrix.values;
         macro_rules! run {
             ($list:expr, $pos:expr) => {
@@ -308,7 +329,15 @@ impl Integrator {
                     } else {
                         None
                     };
+                    let idx = k.unknowns();
+                    let mut before = [0.0f64; crate::elements::MAX_LOCAL];
+                    for (b, &g) in before.iter_mut().zip(idx) {
+                        *b = res[g];
+                    }
                     k.evaluate(ctx, y, res, jac);
+                    for (b, &g) in before.iter().zip(idx) {
+                        activity[g] += (res[g] - b).abs();
+                    }
                 }
             };
         }
@@ -324,22 +353,6 @@ impl Integrator {
             // incomplete (slower convergence, same solution). Counted so tests can see it.
             self.pattern_misses += 1;
         }
-    }
-
-    fn inf_norm(v: &[f64]) -> (f64, usize) {
-        let mut m = 0.0;
-        let mut at = 0;
-        for (i, x) in v.iter().enumerate() {
-            let a = x.abs();
-            if a > m || a.is_nan() {
-                m = a;
-                at = i;
-                if a.is_nan() {
-                    break;
-                }
-            }
-        }
-        (m, at)
     }
 
     /// Multiplier scaling `s = m_ref/h²`: constraint rows and forces then have the size of the
@@ -459,34 +472,17 @@ impl Integrator {
         }
     }
 
-    /// Newton's method on the assembled equations from the current unknowns.
+    /// Newton's method on the assembled equations from the current unknowns. A step is
+    /// converged only when its forces balance *and* its constraints hold (see
+    /// [`convergence`]); otherwise it fails (and is retried smaller or stops the run).
     fn newton(&mut self, sys: &System, ctx: &StepCtx) -> Result<StepReport, StepFailure> {
-        let layout = sys.layout;
-        let fail = |reason: String| StepFailure {
-            t: ctx.t_i,
-            h: ctx.h,
-            reason,
-            retry: true,
-            load_factor: ctx.statics,
-        };
         let mut report = StepReport::default();
-        let mut f_ref = 0.0;
         let mut clamped: Option<&str> = None;
         let mut small_update = false;
         let converged_before = std::mem::replace(&mut self.last_converged, false);
-        let factors_fit = self.modified_newton && !ctx.is_static();
+        let mut previous: Option<Measure> = None;
         for it in 0..=self.max_iter {
-            // Modified Newton: keep the factors (valid for this h) while the residual falls
-            // fast — from the previous step's if it converged, then while each update cuts
-            // the residual 4×; else assemble the tangent and factor afresh.
-            let fast = match it {
-                0 => converged_before,
-                _ => {
-                    let r = &report.residuals;
-                    r.len() >= 2 && r[r.len() - 1] < 0.25 * r[r.len() - 2]
-                }
-            };
-            let reuse = factors_fit && fast && self.factored_for == Some(ctx.h);
+            let reuse = self.reuse_factors(it, converged_before, &report, ctx);
             if it == 0 {
                 self.started_stale = reuse;
             }
@@ -494,94 +490,150 @@ impl Integrator {
             if ctx.is_static() {
                 self.regularize_static(sys, ctx);
             }
-            let (rn, worst) = Self::inf_norm(&self.res);
-            report.residuals.push(rn);
-            if !rn.is_finite() {
-                return Err(fail(format!(
-                    "residual is not finite at {}",
-                    sys.describe_row(worst)
-                )));
+            let m = Measure::of(sys, ctx, &self.res, &self.activity);
+            report.residuals.push(inf_norm(&self.res).0);
+            if !m.finite {
+                return Err(self.not_finite(sys, ctx, &m));
             }
-            if it == 0 {
-                // Force scale of the step: the predictor's imbalance, the model's weight, or
-                // the force of a 1e-8 strain of its stiffest section (below which sectional
-                // forces are round-off: N = EA·e with e computed to ~1e-16).
-                f_ref = rn
-                    .max(sys.mass_ref * sys.gravity.norm())
-                    .max(sys.force_ref)
-                    .max(1e-300);
-            }
-            let k = report.residuals.len();
-            let stagnated = k >= 3 && rn > 0.5 * report.residuals[k - 2] && rn < 1e-6 * f_ref;
-            let settled = small_update && rn < 1e-6 * f_ref;
-            if rn <= self.tol * f_ref || stagnated || settled {
+            // The increment test (an explicit setting) accepts a residual at its round-off
+            // floor when the last update moved nothing by more than `increment_tol`; the
+            // constraints must hold to as much.
+            let settled = small_update
+                && m.force <= 1e-6 * m.force_scale
+                && (m.constraint <= self.increment_tol * sys.length_ref
+                    || m.constraints_hold(sys, self.tol, previous.as_ref()));
+            if m.converged(sys, self.tol, previous.as_ref()) || settled {
                 break;
             }
+            previous = Some(m);
             if it == self.max_iter {
                 let window = clamped.map_or(String::new(), |name| format!("; the contact point of sliding joint `{name}` was held at the edge of its window (it would move more than one element in this step)"));
-                return Err(fail(format!(
-                    "Newton did not converge in {} iterations; largest residual {:.3e} (scale {:.3e}) at {}{window}",
-                    self.max_iter,
-                    rn,
-                    f_ref,
-                    sys.describe_row(worst)
-                )));
+                return Err(step_failure(
+                    ctx,
+                    format!(
+                        "Newton did not converge in {} iterations: {}{window}",
+                        self.max_iter,
+                        m.describe(sys, self.tol)
+                    ),
+                    true,
+                ));
             }
-            if reuse {
-                self.matrix.solve(&mut self.res);
-                self.solves += 1;
-                for (y, d) in self.y.iter_mut().zip(self.res.iter()) {
-                    *y -= d;
-                }
-            } else {
-                self.solve_update().map_err(fail)?;
-                self.factored_for = Some(ctx.h);
-            }
-            // The update just applied (left in `res` by the solve), node by node.
-            small_update = self.increment_tol > 0.0
-                && (0..layout.n_nodes).all(|a| {
-                    let d = layout.node_delta(a);
-                    let u = &self.res[d..d + 6];
-                    let dx = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt() / sys.length_ref;
-                    let dr = (u[3] * u[3] + u[4] * u[4] + u[5] * u[5]).sqrt();
-                    dx.max(dr) <= self.increment_tol
-                });
+            self.apply_update(reuse, ctx)?;
+            small_update = self.update_is_small(sys);
             clamped = self.keep_contacts_in_windows(sys, ctx);
-            if let Some(bad) = self.y.iter().position(|v| !v.is_finite()) {
-                // Singular whatever the step: an unconstrained massless motion, or a mechanism
-                // at a lock-up. Say so rather than halving the step in vain.
-                let what = if ctx.is_static() {
-                    "a motion there is resisted neither by stiffness nor by joints (statics needs every rigid-body motion restrained)"
-                } else {
-                    "a motion there is determined neither by mass nor by joints (give the node a body or constrain it)"
-                };
-                return Err(StepFailure {
-                    retry: false,
-                    ..fail(format!(
-                        "singular Newton matrix at {}: {what}, or the mechanism is at a singular configuration",
-                        sys.describe_row(bad)
-                    ))
-                });
-            }
-            for a in 0..layout.n_nodes {
-                let d = layout.node_delta(a) + 3;
-                let r = V3([self.y[d], self.y[d + 1], self.y[d + 2]]);
-                check_step_rotation(&r).map_err(|e| {
-                    let node = &sys.node_names[a];
-                    if ctx.is_static() {
-                        let angle = 2.0 * (0.5 * r.norm()).atan().to_degrees();
-                        fail(format!("a Newton iteration turns node `{node}` by {angle:.1}° (limit 150°): use more load_steps, or the model lacks a restraint against a rigid-body motion under this load"))
-                    } else {
-                        fail(format!("node `{node}`: {e}"))
-                    }
-                })?;
-            }
+            self.check_iterate(sys, ctx)?;
             report.iterations += 1;
         }
         self.total_iterations += report.iterations;
         self.check_contacts_on_beams(sys, ctx)?;
         self.last_converged = true;
         Ok(report)
+    }
+
+    /// Modified Newton: keep the factors (valid for this h) while the residual falls fast —
+    /// from the previous step's if it converged, then while each update cuts the residual
+    /// 4×; else assemble the tangent and factor afresh.
+    fn reuse_factors(
+        &self,
+        it: usize,
+        converged_before: bool,
+        report: &StepReport,
+        ctx: &StepCtx,
+    ) -> bool {
+        if !self.modified_newton || ctx.is_static() || self.factored_for != Some(ctx.h) {
+            return false;
+        }
+        let r = &report.residuals;
+        match it {
+            0 => converged_before,
+            _ => r.len() >= 2 && r[r.len() - 1] < 0.25 * r[r.len() - 2],
+        }
+    }
+
+    /// Solves for the Newton update (with the kept factors, or factoring afresh) and
+    /// applies it; the update stays in `res`.
+    fn apply_update(&mut self, reuse: bool, ctx: &StepCtx) -> Result<(), StepFailure> {
+        if reuse {
+            self.matrix.solve(&mut self.res);
+            self.solves += 1;
+            for (y, d) in self.y.iter_mut().zip(self.res.iter()) {
+                *y -= d;
+            }
+        } else {
+            self.solve_update()
+                .map_err(|reason| step_failure(ctx, reason, true))?;
+            self.factored_for = Some(ctx.h);
+        }
+        Ok(())
+    }
+
+    /// Whether the update just applied (left in `res` by the solve) moved every node by
+    /// less than `increment_tol` (relative to the model's size; radians).
+    fn update_is_small(&self, sys: &System) -> bool {
+        let layout = sys.layout;
+        self.increment_tol > 0.0
+            && (0..layout.n_nodes).all(|a| {
+                let d = layout.node_delta(a);
+                let u = &self.res[d..d + 6];
+                let dx = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt() / sys.length_ref;
+                let dr = (u[3] * u[3] + u[4] * u[4] + u[5] * u[5]).sqrt();
+                dx.max(dr) <= self.increment_tol
+            })
+    }
+
+    /// The iterate must be finite (a singular matrix is no step-size problem) and turn no
+    /// node past the Rodrigues parameters' limit.
+    fn check_iterate(&self, sys: &System, ctx: &StepCtx) -> Result<(), StepFailure> {
+        let layout = sys.layout;
+        if let Some(bad) = self.y.iter().position(|v| !v.is_finite()) {
+            let what = if ctx.is_static() {
+                "a motion there is resisted neither by stiffness nor by joints (statics needs every rigid-body motion restrained)"
+            } else {
+                "a motion there is determined neither by mass nor by joints (give the node a body or constrain it)"
+            };
+            return Err(step_failure(
+                ctx,
+                format!(
+                    "singular Newton matrix at {}: {what}, or the mechanism is at a singular configuration",
+                    sys.describe_row(bad)
+                ),
+                false,
+            ));
+        }
+        for a in 0..layout.n_nodes {
+            let d = layout.node_delta(a) + 3;
+            let r = V3([self.y[d], self.y[d + 1], self.y[d + 2]]);
+            check_step_rotation(&r).map_err(|e| {
+                let node = &sys.node_names[a];
+                let reason = if ctx.is_static() {
+                    let angle = 2.0 * (0.5 * r.norm()).atan().to_degrees();
+                    format!("a Newton iteration turns node `{node}` by {angle:.1}° (limit 150°): use more load_steps, or the model lacks a restraint against a rigid-body motion under this load")
+                } else {
+                    format!("node `{node}`: {e}")
+                };
+                step_failure(ctx, reason, true)
+            })?;
+        }
+        Ok(())
+    }
+
+    /// A residual that is not finite: a drive or load that is undefined at this time is the
+    /// model's doing (no step helps); otherwise the step went somewhere the physics is not
+    /// defined, and a smaller one may not.
+    fn not_finite(&self, sys: &System, ctx: &StepCtx, m: &Measure) -> StepFailure {
+        if let Some(what) = sys.undefined_time_function(ctx.t_i, ctx.t_f) {
+            return step_failure(ctx, what, false);
+        }
+        let row = if m.force.is_finite() {
+            m.constraint_row
+        } else {
+            m.force_row
+        };
+        step_failure(
+            ctx,
+            format!("residual is not finite at {}", sys.describe_row(row)),
+            true,
+        )
     }
 
     /// Newton's iterate of a sliding joint's ζ stays within the window its unknowns cover;

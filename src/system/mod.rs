@@ -5,6 +5,7 @@ mod beam_mesh;
 pub mod layout;
 pub mod redundancy;
 mod sliding;
+mod time_functions;
 pub mod sparse;
 
 use crate::beam::element::BeamElement;
@@ -135,6 +136,9 @@ pub struct System {
     pub length_ref: f64,
     /// Force of a 1e-8 strain of the stiffest section: the scale of round-off in elastic forces.
     pub force_ref: f64,
+    /// Round-off of the largest elastic force a kernel computes (a section's `EA·e`, a
+    /// spring's `k (q − q₀)`): a Newton residual below it is converged whatever the tolerance.
+    pub force_roundoff: f64,
     /// Per node: whether the model gave its initial velocity (else zero, to be completed).
     pub velocity_given: Vec<bool>,
     /// Per node whose mass was moved to an internal centre-of-mass node: that node and the
@@ -142,6 +146,8 @@ pub struct System {
     pub cm_node: Vec<Option<(usize, V3<f64>)>>,
     /// Per node: the initial spin it was given, if any.
     pub node_spin: Vec<Option<SteadySpin>>,
+    /// Each load's scale function, with the load's name (for diagnostics).
+    pub load_scales: Vec<(String, TimeFunction)>,
 }
 
 fn orientation(o: &model::Orientation) -> M3<f64> {
@@ -740,12 +746,16 @@ impl System {
         // Loads; a distributed load becomes one point load per node of its beam.
         let mut loads = Vec::new();
         let mut line_loads = Vec::new();
+        let mut load_scales = Vec::new();
         for (i, l) in model.loads.iter().enumerate() {
             let scale = l
                 .scale()
                 .map(TimeFunction::new)
                 .transpose()
                 .map_err(|e| err(format!("loads[{i}].scale"), e))?;
+            if let Some(f) = &scale {
+                load_scales.push((l.name().to_string(), f.clone()));
+            }
             let kind = if l.is_moment() {
                 LoadKind::Moment
             } else {
@@ -817,6 +827,10 @@ impl System {
                         .max(p.stiffness[2][2])
                 })
                 .fold(0.0f64, f64::max);
+        let force_roundoff = springs.iter().fold(1e-6 * force_ref, |m, sp| {
+            let reach = coords0[sp.coord].abs().max(sp.law.reference_magnitude()).max(1.0);
+            m.max(1e-14 * sp.law.stiffness_scale() * reach)
+        });
         let n_c = coords0.len();
         let initial = State {
             t: 0.0,
@@ -846,8 +860,10 @@ impl System {
             mass_ref,
             length_ref,
             force_ref,
+            force_roundoff,
             velocity_given,
             node_spin,
+            load_scales,
             cm_node,
         })
     }
