@@ -1,0 +1,128 @@
+//! Samples: sensor channels at the requested output times, with the multiplier channels
+//! (step averages) interpolated between mid-steps.
+
+use super::Simulation;
+use crate::integrator::StepReport;
+
+impl Simulation {
+    /// Records a sample at the current time (the start of a run). Its state channels are
+    /// final; its step channels (multipliers) wait in `pending` for the step after it.
+    pub(super) fn record(&mut self) {
+        let mut row = Vec::with_capacity(self.channels.len());
+        self.channels
+            .sample(&self.system, &self.state, &self.totals, &mut row);
+        self.last_row = row.clone();
+        self.emit(self.state.t, row);
+    }
+
+    /// After a step from `t_i`: records every requested output time in (t_i, t_f] — state
+    /// channels interpolated linearly between the step's ends (the schemes move positions
+    /// with the step's mean velocity), so outputs land on the requested times whatever the
+    /// steps were — or the step's end when every step is recorded.
+    pub(super) fn record_outputs(&mut self, t_i: f64) {
+        let mut row_f = Vec::with_capacity(self.channels.len());
+        self.channels
+            .sample(&self.system, &self.state, &self.totals, &mut row_f);
+        let t_f = self.state.t;
+        let row_i = std::mem::take(&mut self.last_row);
+        match self.settings.output_dt {
+            None => self.emit(t_f, row_f.clone()),
+            Some(out) => {
+                let t_end = self.settings.t_end;
+                let slack = 1e-9 * (t_f - t_i).max(1e-300);
+                loop {
+                    let t_o = (self.output_index as f64 * out).min(t_end);
+                    if t_o > t_f + slack {
+                        break;
+                    }
+                    let w = ((t_o - t_i) / (t_f - t_i)).clamp(0.0, 1.0);
+                    let row = row_i
+                        .iter()
+                        .zip(&row_f)
+                        .map(|(a, b)| a + (b - a) * w)
+                        .collect();
+                    self.emit(t_o, row);
+                    if t_o >= t_end {
+                        self.output_index = u64::MAX / 2;
+                        break;
+                    }
+                    self.output_index += 1;
+                }
+            }
+        }
+        self.last_row = row_f;
+    }
+
+    /// Adds a sample; its step channels are completed when the steps around it are known.
+    pub(super) fn emit(&mut self, t: f64, row: Vec<f64>) {
+        if self.channels.step_channels().is_empty() {
+            self.times.push(t);
+            self.values.extend_from_slice(&row);
+        } else {
+            self.pending.push_back((t, row));
+            self.finalize_pending(false);
+        }
+    }
+
+    /// Fills the step channels of pending samples from the step values around their time:
+    /// a step's multipliers are step-average forces belonging to its mid-step time, so the
+    /// value at a sample time is interpolated between the steps before and after it (which
+    /// also cancels EP's period-2 multiplier oscillation). Samples before the first step's
+    /// mid-time are extrapolated from the first two steps. With `flush`, every pending sample
+    /// is completed with what is available (extrapolating from the last steps).
+    pub(super) fn finalize_pending(&mut self, flush: bool) {
+        while let Some((t, _)) = self.pending.front() {
+            let t = *t;
+            let n = self.recent.len();
+            // Interpolation needs two steps, the newer one after the sample time.
+            let ready = n >= 2 && self.recent[n - 1].0 >= t;
+            if !ready && !flush {
+                break;
+            }
+            let (_, mut row) = self.pending.pop_front().expect("front exists");
+            let step = self.channels.step_channels();
+            for (slot, &c) in step.iter().enumerate() {
+                row[c] = match n {
+                    0 => f64::NAN,
+                    1 => self.recent[0].1[slot],
+                    _ => {
+                        let (ta, va) = (self.recent[n - 2].0, self.recent[n - 2].1[slot]);
+                        let (tb, vb) = (self.recent[n - 1].0, self.recent[n - 1].1[slot]);
+                        va + (vb - va) * (t - ta) / (tb - ta)
+                    }
+                };
+            }
+            self.times.push(t);
+            self.values.extend_from_slice(&row);
+        }
+    }
+
+    /// Keeps the step values of the last two steps (time of each: its mid-step).
+    pub(super) fn push_step_values(&mut self, t_mid: f64, report: &StepReport) {
+        if self.channels.step_channels().is_empty() {
+            return;
+        }
+        let mut v = Vec::with_capacity(self.channels.step_channels().len());
+        self.channels.step_values(report, &mut v);
+        if self.recent.len() == 2 {
+            self.recent.pop_front();
+        }
+        self.recent.push_back((t_mid, v));
+        self.finalize_pending(false);
+    }
+
+    /// Completes the samples still waiting for a next step (extrapolating their step
+    /// channels), e.g. when a run is interrupted.
+    pub fn flush(&mut self) {
+        self.finalize_pending(true);
+    }
+
+    /// Takes the samples recorded since the last call: (times, row-major values).
+    pub fn take_samples(&mut self) -> (Vec<f64>, Vec<f64>) {
+        (
+            std::mem::take(&mut self.times),
+            std::mem::take(&mut self.values),
+        )
+    }
+
+}
