@@ -74,6 +74,21 @@ impl Channels {
         &self.step_channels
     }
 
+    /// Indices of the channels that are step-end bookkeeping — energies and works (the
+    /// energy identity holds at step ends), joint violations (the constraints hold at step
+    /// ends): between step ends they are interpolated linearly, not evaluated on an
+    /// interpolated state.
+    pub fn step_end_channels(&self) -> Vec<usize> {
+        (0..self.sources.len())
+            .filter(|&c| match &self.sources[c] {
+                (Source::Energy | Source::Violation(_), _) => true,
+                (Source::Drive(_), k) => *k == 1,
+                (Source::SlidingDrive(..), k) => *k == 2,
+                _ => false,
+            })
+            .collect()
+    }
+
     /// Values of the step channels (in `step_channels` order) for a converged step.
     pub fn step_values(&self, report: &StepReport, out: &mut Vec<f64>) {
         for &c in &self.step_channels {

@@ -155,6 +155,16 @@ impl TimeFunction {
         }
     }
 
+    /// The middle of each segment of a table (empty for other functions): a short segment
+    /// can hold a burst of rate that sampling at even times would miss.
+    pub fn segment_midpoints(&self) -> impl Iterator<Item = f64> + '_ {
+        let t: &[f64] = match self {
+            TimeFunction::Table { t, .. } => t,
+            _ => &[],
+        };
+        t.windows(2).map(|w| 0.5 * (w[0] + w[1]))
+    }
+
     pub fn accel(&self, time: f64) -> f64 {
         match self {
             TimeFunction::Expression { accel: Some(a), .. } => eval(a, true, time),

@@ -3,9 +3,12 @@
 //! drives, loads, dampers and constraints, and ED's jump dissipation).
 
 pub mod convergence;
+pub mod dense_output;
+mod load_response;
 pub mod predictor;
 
 use convergence::{inf_norm, Measure};
+pub use load_response::LoadResponse;
 
 use crate::elements::{Kernel, StepCtx};
 use crate::model::SimulationSettings;

@@ -1,6 +1,7 @@
 //! A running simulation: consistent initial velocities, fixed-step advance with step halving
 //! on Newton failure, and sensor samples handed out in chunks so memory stays flat.
 
+mod energy_scale;
 mod initial_velocities;
 mod outputs;
 mod step_control;
@@ -114,15 +115,20 @@ pub struct Simulation {
     output_index: u64,
     /// State channels at the current state (the start of the next step).
     last_row: Vec<f64>,
+    /// Channels that are step-end bookkeeping, interpolated linearly between step ends.
+    step_end_channels: Vec<usize>,
     /// Adaptive stepping: the size proposed for the next step; the last two steps' sizes and
     /// mean velocities (for EP's error estimate), latest last.
     h_next: f64,
     recent_means: std::collections::VecDeque<StepMeans>,
-    /// Adaptive stepping: the last trial's (h, e) and the indicator's observed order in h.
-    last_trial: Option<(f64, f64)>,
-    error_order: f64,
-    /// The largest kinetic + strain + spring energy so far: the error indicator's scale.
+    /// Adaptive stepping: the step-size controller.
+    controller: step_control::Controller,
+    /// The error indicator's energy scale: the largest kinetic + strain + spring energy so
+    /// far, and never less than `energy_floor`.
     energy_scale: f64,
+    /// The energy scale the model's drives and loads set before the run (see
+    /// `energy_scale.rs`).
+    pub energy_floor: f64,
     /// Static analysis: the load factor of the current state.
     load_factor: f64,
 }
@@ -237,7 +243,12 @@ impl Simulation {
                 changed.join(", ")
             ));
         }
-        let integrator = Integrator::new(&system, &settings);
+        let mut integrator = Integrator::new(&system, &settings);
+        let energy_floor = if statics || settings.step_control == StepControl::Fixed {
+            0.0
+        } else {
+            energy_scale::energy_floor(&system, &state, &mut integrator, &settings)
+        };
         let channels = Channels::new(model, &system).map_err(SimError::Model)?;
         let e0 = system.kinetic_energy(&state) + system.potential_energy(&state);
         let totals = Totals {
@@ -262,15 +273,17 @@ impl Simulation {
             step_index: 0,
             output_index: 1,
             last_row: vec![],
+            step_end_channels: vec![],
             h_next: 0.0,
             recent_means: Default::default(),
-            last_trial: None,
-            error_order: 2.0,
+            controller: Default::default(),
             energy_scale: 0.0,
+            energy_floor,
             load_factor: 0.0,
         };
         sim.h_next = sim.settings.dt;
-        sim.energy_scale = sim.system.motion_energy(&sim.state);
+        sim.energy_scale = sim.system.motion_energy(&sim.state).max(energy_floor);
+        sim.step_end_channels = sim.channels.step_end_channels();
         if statics {
             // The unloaded state, with no reactions yet.
             let mut row = Vec::with_capacity(sim.channels.len());
@@ -423,7 +436,7 @@ impl Simulation {
             }
             self.recent_means.push_back(means);
         }
-        self.state = state;
+        let start = std::mem::replace(&mut self.state, state);
         self.stats.steps += 1;
         self.stats.dt_smallest = self.stats.dt_smallest.min(h);
         self.stats.dt_largest = self.stats.dt_largest.max(h);
@@ -453,21 +466,24 @@ impl Simulation {
             .max(report.constraint_work.abs());
         self.push_step_values(t_i + 0.5 * h, &report);
         self.last_report = Some(report);
+        self.record_outputs(&start);
     }
 
-    /// One step of `h`, retried as two halves (recursively) if Newton fails.
-    fn advance_interval(&mut self, h: f64, depth: u32) -> Result<(), StepFailure> {
+    /// One step to time `end`, retried as two halves (recursively) if Newton fails.
+    fn advance_interval(&mut self, end: f64, depth: u32) -> Result<(), StepFailure> {
         self.follow_contacts();
+        let h = end - self.state.t;
         match self.integrator.step(&self.system, &self.state, h) {
-            Ok((state, report)) => {
+            Ok((mut state, report)) => {
+                // Exactly on the grid k·dt (no drift in t).
+                state.t = end;
                 self.accept(state, report, h);
                 Ok(())
             }
             Err(e) if e.retry && depth < self.settings.max_step_halvings => {
                 self.stats.halvings += 1;
-                let _ = e;
-                self.advance_interval(0.5 * h, depth + 1)?;
-                self.advance_interval(0.5 * h, depth + 1)
+                self.advance_interval(self.state.t + 0.5 * h, depth + 1)?;
+                self.advance_interval(end, depth + 1)
             }
             Err(e) => Err(e),
         }
@@ -481,16 +497,12 @@ impl Simulation {
         let target = t_target.min(t_end);
         let adaptive = self.settings.step_control == StepControl::Adaptive;
         while self.state.t < target - 1e-9 * dt {
-            let t_i = self.state.t;
             let result = if adaptive {
                 self.adaptive_step()
             } else {
                 // Land exactly on t_end; otherwise steps are k·dt from 0 to avoid drift in t.
                 let next = ((self.step_index + 1) as f64 * dt).min(t_end);
-                let h = next - self.state.t;
-                self.advance_interval(h, 0).map(|()| {
-                    self.state.t = next;
-                })
+                self.advance_interval(next, 0)
             };
             if let Err(e) = result {
                 // Keep every completed step: complete the pending samples and stop.
@@ -499,7 +511,6 @@ impl Simulation {
                 return Err(e);
             }
             self.step_index += 1;
-            self.record_outputs(t_i);
         }
         if self.done() {
             self.finalize_pending(true);

@@ -1,8 +1,11 @@
-//! Samples: sensor channels at the requested output times, with the multiplier channels
-//! (step averages) interpolated between mid-steps.
+//! Samples: sensor channels at the requested output times — on states interpolated within
+//! the step to the scheme's order — with the multiplier channels (step averages)
+//! interpolated between mid-steps.
 
 use super::Simulation;
+use crate::integrator::dense_output::state_between;
 use crate::integrator::StepReport;
+use crate::state::State;
 
 impl Simulation {
     /// Records a sample at the current time (the start of a run). Its state channels are
@@ -15,15 +18,15 @@ impl Simulation {
         self.emit(self.state.t, row);
     }
 
-    /// After a step from `t_i`: records every requested output time in (t_i, t_f] — state
-    /// channels interpolated linearly between the step's ends (the schemes move positions
-    /// with the step's mean velocity), so outputs land on the requested times whatever the
-    /// steps were — or the step's end when every step is recorded.
-    pub(super) fn record_outputs(&mut self, t_i: f64) {
+    /// After a step from `start` to the current state: records every requested output time
+    /// in (t_i, t_f] — on the state interpolated to the scheme's order (`dense_output`), so
+    /// outputs land on the requested times whatever the steps were, as accurate as the step
+    /// ends — or the step's end when every step is recorded.
+    pub(super) fn record_outputs(&mut self, start: &State) {
         let mut row_f = Vec::with_capacity(self.channels.len());
         self.channels
             .sample(&self.system, &self.state, &self.totals, &mut row_f);
-        let t_f = self.state.t;
+        let (t_i, t_f) = (start.t, self.state.t);
         let row_i = std::mem::take(&mut self.last_row);
         match self.settings.output_dt {
             None => self.emit(t_f, row_f.clone()),
@@ -35,12 +38,13 @@ impl Simulation {
                     if t_o > t_f + slack {
                         break;
                     }
-                    let w = ((t_o - t_i) / (t_f - t_i)).clamp(0.0, 1.0);
-                    let row = row_i
-                        .iter()
-                        .zip(&row_f)
-                        .map(|(a, b)| a + (b - a) * w)
-                        .collect();
+                    let row = if t_o >= t_f - slack {
+                        row_f.clone()
+                    } else if t_o <= t_i + slack {
+                        row_i.clone()
+                    } else {
+                        self.row_between(start, &row_i, &row_f, t_o)
+                    };
                     self.emit(t_o, row);
                     if t_o >= t_end {
                         self.output_index = u64::MAX / 2;
@@ -51,6 +55,21 @@ impl Simulation {
             }
         }
         self.last_row = row_f;
+    }
+
+    /// The channels at time `t` inside the step from `start` (channels `row_i`) to the
+    /// current state (`row_f`): sensors on the interpolated state, bookkeeping channels
+    /// (energies, works, violations: exact at step ends) linear between the ends.
+    fn row_between(&self, start: &State, row_i: &[f64], row_f: &[f64], t: f64) -> Vec<f64> {
+        let mid = state_between(&self.system, start, &self.state, t);
+        let mut row = Vec::with_capacity(self.channels.len());
+        self.channels
+            .sample(&self.system, &mid, &self.totals, &mut row);
+        let w = (t - start.t) / (self.state.t - start.t);
+        for &c in &self.step_end_channels {
+            row[c] = row_i[c] + (row_f[c] - row_i[c]) * w;
+        }
+        row
     }
 
     /// Adds a sample; its step channels are completed when the steps around it are known.

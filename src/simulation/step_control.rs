@@ -33,14 +33,13 @@ impl Simulation {
         let motion = if self.recent_means.len() < 2 {
             self.doubling_error(end, h)?
         } else {
-            let energy = self.mean_velocity_error_energy(end, h);
-            self.relative_error(energy, end)
+            self.mean_velocity_error_energy(end, h)
         };
+        let motion = self.relative_error((motion - self.roundoff_energy(h)).max(0.0), end);
+        let jump = self.relative_error(report.numerical_dissipation.max(0.0), end);
         Ok(match self.settings.scheme {
             Scheme::Ep => motion,
-            Scheme::Ed => {
-                motion.max(self.relative_error(report.numerical_dissipation.max(0.0), end))
-            }
+            Scheme::Ed => motion.max(jump),
         })
     }
 
@@ -96,7 +95,7 @@ impl Simulation {
         energy
     }
 
-    /// EP's first two steps have too little history: their error is estimated by step
+    /// The first two steps have too little history: their error energy is estimated by step
     /// doubling — the full step against two halves, whose end positions differ by ¾ of the
     /// full step's local error (local error ∝ h³) — in the same energy measure.
     pub(super) fn doubling_error(&mut self, end: &State, h: f64) -> Result<f64, StepFailure> {
@@ -109,105 +108,154 @@ impl Simulation {
             let dw = rotation_between(&b.r, &a.r).scale_f(4.0 / 3.0 / h);
             energy += 0.5 * k.mass * dv.norm_sq() + 0.5 * dw.dot(&k.inertia.mul_v(&dw));
         }
-        Ok(self.relative_error(energy, end))
+        Ok(energy)
     }
 
-    /// One adaptive step: tried with the proposed size, rejected and retried smaller while its
-    /// error indicator exceeds 1 or Newton fails. The next size aims at e = 0.8:
-    /// `h·(0.8/e)^(1/q)` within the growth and shrink limits (DESIGN 8.6), with q the indicator's
-    /// observed order in h — nominally 2, but ED's jump energy steepens to q ≈ 4 as ωh nears 1
-    /// on a fast mode, where a fixed exponent would alternate between too long and rejected
-    /// steps. A step right after a rejection does not grow, nor one that would grow by less
-    /// than 25 %.
+    /// The error energy round-off alone shows at step `h`: positions are known to ~ε of the
+    /// model's size, so mean velocities carry ~ε L/h of noise, and a drive's own round-off
+    /// (cancellation in its expression) a few times that. An estimate below 16 times it is
+    /// noise, not error — without this, smaller steps would only look worse.
+    pub(super) fn roundoff_energy(&self, h: f64) -> f64 {
+        let dv = 16.0 * f64::EPSILON * self.system.length_ref / h;
+        let dw = 16.0 * f64::EPSILON / h;
+        self.system
+            .inertias
+            .iter()
+            .map(|k| 0.5 * k.mass * dv * dv + 0.5 * k.inertia.trace() * dw * dw)
+            .sum()
+    }
+
+    /// One adaptive step: tried with the proposed size, rejected and retried smaller while
+    /// its error indicator exceeds 1 or Newton fails; the next size comes from the
+    /// [`Controller`]. A trial whose indicator a 1.5× shorter step barely lowered measures
+    /// the state, not the step (ED's jump settling a velocity the step before left off its
+    /// joints' tangent; a prescribed velocity jump): no shorter step would meet it, so it is
+    /// taken and counted in `over_tolerance`.
     pub(super) fn adaptive_step(&mut self) -> Result<(), StepFailure> {
-        let set = &self.settings;
-        let (dt_min, dt_max) = (set.dt_min(), set.dt_max());
-        let (grow, shrink) = (set.max_growth, set.max_shrink);
-        let remaining = set.t_end - self.state.t;
-        let mut h = self.h_next.min(dt_max);
-        // Land on t_end, without leaving a sliver of a last step.
-        if h >= remaining || remaining < 1.25 * h {
-            h = if h >= remaining {
-                remaining
-            } else {
-                0.5 * remaining
-            };
-        }
-        let mut rejected = false;
-        let mut previous_trial = None;
+        let (dt_min, dt_max) = (self.settings.dt_min(), self.settings.dt_max());
+        let mut h = self.first_trial();
+        let first_h = h;
+        let mut previous_trial: Option<(f64, f64)> = None;
         loop {
             self.follow_contacts();
-            let tried =
-                self.integrator
-                    .step(&self.system, &self.state, h)
-                    .and_then(|(state, report)| {
-                        let e = self.local_error(&state, h, &report)?;
-                        Ok((state, report, e))
-                    });
+            let tried = self
+                .integrator
+                .step(&self.system, &self.state, h)
+                .and_then(|(state, report)| {
+                    let e = self.local_error(&state, h, &report)?;
+                    Ok((state, report, e))
+                });
             match tried {
                 Ok((state, report, e)) => {
-                    let factor = self.step_factor(h, e).clamp(shrink, grow);
-                    // An indicator that a step 1.5× shorter barely lowered (an order in h below
-                    // 0.26) measures the state, not the step — ED's jump settling the velocity
-                    // the step before left off its joints' tangent: no shorter step would meet
-                    // it, so take this one.
-                    let stuck =
-                        previous_trial.is_some_and(|(h0, e0)| h < 0.67 * h0 && e > 0.9 * e0);
+                    let stuck = previous_trial.is_some_and(|(h0, e0)| h < 0.67 * h0 && e > 0.9 * e0);
                     previous_trial = Some((h, e));
                     if e <= 1.0 || stuck {
                         if e > 1.0 {
                             self.stats.over_tolerance += 1;
                         }
                         self.accept(state, report, h);
-                        let factor = if rejected { factor.min(1.0) } else { factor };
-                        // Keep h through small increases: an unchanged step keeps modified
-                        // Newton's factors valid (the Newton matrix depends on h).
-                        let factor = if (1.0..1.25).contains(&factor) {
-                            1.0
-                        } else {
-                            factor
-                        };
-                        self.h_next = (h * factor).clamp(dt_min, dt_max);
+                        let factor = self.controller.accepted(e, &self.settings);
+                        // Keep h through small increases under modified Newton: an unchanged
+                        // step keeps its factors valid (the Newton matrix depends on h).
+                        let keep = self.settings.modified_newton && (1.0..1.25).contains(&factor);
+                        self.h_next = if keep { h } else { (h * factor).clamp(dt_min, dt_max) };
                         return Ok(());
                     }
                     self.stats.rejected += 1;
-                    rejected = true;
                     if h <= dt_min * (1.0 + 1e-12) {
-                        return Err(StepFailure {
-                            t: self.state.t,
-                            h,
-                            reason: format!("the error tolerance {:.1e} cannot be met even with the smallest step dt_min = {dt_min:.3e} s (error indicator {e:.2}); loosen `tolerance` or lower `dt_min`", self.settings.tolerance),
-                            retry: false,
-                            load_factor: None,
-                        });
+                        return Err(self.cannot_continue(h, first_h, format!("the error tolerance {:.1e} cannot be met even with the smallest step dt_min = {dt_min:.3e} s (error indicator {e:.2}); loosen `tolerance` or lower `dt_min`", self.settings.tolerance)));
                     }
-                    h = (h * factor.min(0.9)).max(dt_min);
+                    h = (h * self.controller.rejected(e, &self.settings)).max(dt_min);
                 }
                 Err(e) if e.retry && h > dt_min * (1.0 + 1e-12) => {
                     self.stats.rejected += 1;
                     self.stats.halvings += 1;
-                    rejected = true;
+                    self.controller.failed();
                     h = (0.25 * h).max(dt_min);
                 }
+                Err(e) if e.retry => return Err(self.cannot_continue(h, first_h, e.reason)),
                 Err(e) => return Err(e),
             }
         }
     }
 
-    /// The factor on `h` that brings the indicator `e` to 0.8, updating the indicator's
-    /// observed order q from the previous trial (kept within [1, 4]; 2 until measured).
-    pub(super) fn step_factor(&mut self, h: f64, e: f64) -> f64 {
-        if e <= 0.0 {
-            return f64::INFINITY;
+    /// The size of the first trial: the proposed one, landing on t_end without leaving a
+    /// sliver of a last step.
+    fn first_trial(&self) -> f64 {
+        let remaining = self.settings.t_end - self.state.t;
+        let h = self.h_next.min(self.settings.dt_max());
+        if h >= remaining {
+            remaining
+        } else if remaining < 1.25 * h {
+            0.5 * remaining
+        } else {
+            h
         }
-        if let Some((h0, e0)) = self.last_trial {
-            let ratio = h / h0;
-            if e0 > 0.0 && !(0.9..=1.1).contains(&ratio) {
-                self.error_order = ((e / e0).ln() / ratio.ln()).clamp(1.0, 4.0);
-            }
+    }
+
+    /// The failure of a step that shrank to dt_min. If a drive or load is undefined just
+    /// ahead (the steps shrank towards a singularity such as `sqrt(0.3 - t)` at 0.3 s), that
+    /// is the cause, and the message says so.
+    fn cannot_continue(&self, h: f64, first_h: f64, reason: String) -> StepFailure {
+        let t = self.state.t;
+        let ahead = (1..=64).map(|k| t + first_h * k as f64 / 32.0);
+        let reason = ahead
+            .filter_map(|t_f| self.system.undefined_time_function(t, t_f))
+            .next()
+            .map_or(reason, |why| format!("the steps shrank to dt_min approaching a singularity: {why}"));
+        StepFailure {
+            t,
+            h,
+            reason,
+            retry: false,
+            load_factor: None,
         }
-        self.last_trial = Some((h, e));
-        (0.8 / e).powf(1.0 / self.error_order)
+    }
+}
+
+/// Step-size selection: a PI controller (Gustafsson; Hairer & Wanner II, IV.2) on the error
+/// indicator e ∝ h^q, aiming at e = 0.8. The proportional part, through the previous step's
+/// indicator, damps the step-to-step oscillation of a plain `(0.8/e)^(1/q)` rule on a noisy
+/// indicator (EP's undamped beam vibration), which otherwise grows steps into rejections.
+#[derive(Clone, Debug, Default)]
+pub struct Controller {
+    /// The last accepted step's indicator.
+    last: Option<f64>,
+    /// Whether the step being chosen follows a rejection (it may not grow).
+    after_rejection: bool,
+}
+
+/// The indicator's nominal order in h: relative velocity errors h²v″/12, jump velocities
+/// h²v″/6.
+const ORDER: f64 = 2.0;
+/// The indicator a step aims at.
+const TARGET: f64 = 0.6;
+
+impl Controller {
+    /// The factor on h for the step after an accepted one with indicator `e`.
+    pub fn accepted(&mut self, e: f64, set: &crate::model::SimulationSettings) -> f64 {
+        let e = e.max(1e-10);
+        let integral = (TARGET / e).powf(0.7 / ORDER);
+        let proportional = self.last.map_or((TARGET / e).powf(0.3 / ORDER), |last| {
+            (last.max(1e-10) / TARGET).powf(0.4 / ORDER)
+        });
+        let mut factor = (integral * proportional).clamp(set.max_shrink, set.max_growth);
+        if std::mem::take(&mut self.after_rejection) {
+            factor = factor.min(1.0);
+        }
+        self.last = Some(e);
+        factor
+    }
+
+    /// The factor on h for the retry of a step rejected with indicator `e` (< 0.9).
+    pub fn rejected(&mut self, e: f64, set: &crate::model::SimulationSettings) -> f64 {
+        self.after_rejection = true;
+        (0.9 * (TARGET / e).powf(1.0 / ORDER)).clamp(set.max_shrink, 0.9)
+    }
+
+    /// A step whose Newton iteration failed (retried at a quarter).
+    pub fn failed(&mut self) {
+        self.after_rejection = true;
     }
 }
 
