@@ -1,71 +1,159 @@
-"""Cost for a given accuracy, fixed against adaptive steps, EP and ED (issue 6).
+"""Work-precision of adaptive against fixed steps, EP and ED (issues 6 and 15).
 
-python benches/step_control.py
+    python benches/step_control.py                 # all problems, both schemes (~15 min)
+    python benches/step_control.py beam_pendulum   # one problem
+    python benches/step_control.py --repeats 5
 
-Each problem is run with a tiny fixed step as reference, then with fixed steps and with adaptive
-steps at several tolerances; the table gives the largest error of a watched channel (relative
-to its range), steps, rejected steps, Newton iterations and wall time.
+For each problem a converged reference is computed with a tiny fixed step; then runs with fixed
+steps and with adaptive steps at several tolerances record a watched quantity at the requested
+output times. The table gives, per run:
+
+- `error`: the largest error of the watched quantity at the output times (a position, m),
+  and `rel`: that error over the quantity's range in the reference — a global relative error,
+  to hold against the tolerance (`rel/tol`);
+- `ends/samples`: the error at the steps' ends over the error at the samples (dense output
+  makes samples as accurate as step ends: ≈ 1);
+- steps, rejected steps, Newton iterations, and the process CPU time (median of interleaved
+  repeats: every configuration is run once per round, so machine load spreads evenly);
+- `cost ratio`: for an adaptive run, its CPU time over the time fixed steps need for the same
+  error (interpolated log-log along the fixed-step runs, whose error goes as dt²).
 """
 
-import time
+import argparse
+import resource
+import sys
 from pathlib import Path
 
 import numpy as np
-from simulate import beam_pendulum
 
 import flexdyn as fd
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from simulate import beam_pendulum as _beam_pendulum  # noqa: E402
 
 
-def heavy_top():
-    m = fd.load(ROOT / "examples" / "heavy_top.yaml")
-    m.settings(**{**m.data["simulation"], "t_end": 0.5, "output_dt": 0.01})
-    return m, "cm.y", [2e-3, 1e-3, 5e-4], 2.5e-5
+def _load(path, **settings):
+    m = fd.load(ROOT / "examples" / path)
+    m.settings(**{**m.data["simulation"], **settings})
+    return m
 
 
 def pendulum():
-    m = fd.load(ROOT / "examples" / "pendulum.yaml")
-    m.settings(**{**m.data["simulation"], "t_end": 5.0, "output_dt": 0.05})
-    return m, "angle.phi", [4e-2, 2e-2, 1e-2], 2e-4
+    m = _load("pendulum.yaml", t_end=5.0)
+    m.sensor("node_position", "watch", node="bob")
+    return m, 0.05, [4e-2, 2e-2, 1e-2, 5e-3], 1e-4
 
 
-def flexible_pendulum():
-    m = beam_pendulum()
-    m.sensor("node_displacement", "tip_u", node="tip")
-    m.settings(t_end=1.0, output_dt=0.01, newton_tol=1e-10)
-    return m, "tip_u.y", [4e-3, 2e-3, 1e-3], 1e-4
+def heavy_top():
+    m = _load("heavy_top.yaml", t_end=0.5)
+    m.sensor("node_position", "watch", node="top")
+    return m, 0.01, [2e-3, 1e-3, 5e-4, 2.5e-4], 1e-5
+
+
+def beam_pendulum():
+    m = _beam_pendulum()
+    m.sensor("node_position", "watch", node="tip")
+    m.settings(t_end=2.0)
+    return m, 0.01, [1.6e-2, 8e-3, 4e-3, 2e-3, 1e-3], 1e-4
+
+
+def beam_slider():
+    # Case 1 of the paper's beam slider (section 7.1), 2 s: the beam's tip.
+    m = _load("beam_slider/case1.yaml", modified_newton=False)
+    m.sensor("node_position", "watch", node="tip")
+    return m, 0.01, [1.6e-2, 8e-3, 4e-3, 2e-3], 1e-4
+
+
+PROBLEMS = {f.__name__: f for f in (pendulum, heavy_top, beam_pendulum, beam_slider)}
+TOLERANCES = [1e-2, 1e-3, 1e-4, 1e-5]
+
+
+def cpu():
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def watched(res):
+    return np.stack([res[f"watch.{c}"].values for c in "xyz"], axis=1)
+
+
+def error_at(ref_t, ref_x, t, x):
+    """Largest distance from the reference (interpolated to t) at the times t."""
+    xi = np.stack([np.interp(t, ref_t, ref_x[:, k]) for k in range(3)], axis=1)
+    return np.linalg.norm(x - xi, axis=1).max()
+
+
+def run(model, scheme, kw):
+    c0 = cpu()
+    res = fd.simulate(model, scheme=scheme, **kw)
+    return res, cpu() - c0
+
+
+def equal_accuracy_time(fixed, error):
+    """CPU time fixed steps need for `error`: log-log interpolation along the fixed-step runs
+    (extrapolated from the nearest two outside their range)."""
+    pts = sorted(fixed)
+    e = np.log([p[0] for p in pts])
+    c = np.log([p[1] for p in pts])
+    x = np.log(error)
+    i = int(np.clip(np.searchsorted(e, x) - 1, 0, len(e) - 2))
+    slope = (c[i + 1] - c[i]) / (e[i + 1] - e[i])
+    return float(np.exp(c[i] + slope * (x - e[i])))
+
+
+def study(name, scheme, repeats):
+    model, out, dts, dt_ref = PROBLEMS[name]()
+    ref, _ = run(model, scheme, {"step_control": "fixed", "dt": dt_ref, "output_dt": dt_ref})
+    ref_t, ref_x = ref["time"].values, watched(ref)
+    span = np.ptp(ref_x, axis=0).max()
+    configs = [("fixed", f"dt {dt:g}", {"step_control": "fixed", "dt": dt}) for dt in dts]
+    configs += [("adaptive", f"tol {tol:g}", {"step_control": "adaptive", "tolerance": tol}) for tol in TOLERANCES]
+    times = {label: [] for _, label, _ in configs}
+    rows = {}
+    for _ in range(repeats):
+        for kind, label, kw in configs:
+            try:
+                res, t = run(model, scheme, {**kw, "output_dt": out})
+            except fd.SolverError as e:
+                rows[label] = (kind, None, str(e).splitlines()[0][:90])
+                continue
+            times[label].append(t)
+            if label not in rows:
+                ends = fd.simulate(model, scheme=scheme, **kw)  # every step recorded
+                err = error_at(ref_t, ref_x, res["time"].values, watched(res))
+                err_ends = error_at(ref_t, ref_x, ends["time"].values, watched(ends))
+                rows[label] = (kind, (err, err_ends, res.attrs["stats"]), kw)
+    fixed = [(rows[lb][1][0], np.median(times[lb])) for k, lb, _ in configs if k == "fixed" and rows[lb][1]]
+    print(f"\n{name}, {scheme.upper()} (range of the watched position {span:.3g} m)\n")
+    print("| steps by | error m | rel | rel/tol | ends/samples | steps | rejected | Newton its | CPU s | cost ratio |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    for kind, label, kw in configs:
+        kind, data, extra = rows[label]
+        if data is None:
+            print(f"| {label} | failed: {extra} | | | | | | | | |")
+            continue
+        err, err_ends, s = data
+        t = np.median(times[label])
+        rel = err / span
+        per_tol = f"{rel / kw['tolerance']:.2f}" if kind == "adaptive" else ""
+        ratio = f"{t / equal_accuracy_time(fixed, err):.2f}" if kind == "adaptive" else ""
+        print(
+            f"| {label} | {err:.2e} | {rel:.1e} | {per_tol} | {err_ends / err:.2f} | {s['steps']} | "
+            f"{s['rejected']} | {s['newton_iterations']} | {t:.3f} | {ratio} |",
+            flush=True,
+        )
 
 
 def main():
-    tolerances = [1e-3, 1e-4, 1e-5]
-    print("| problem | scheme | steps chosen by | error | steps | rejected | Newton its | wall s |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
-    for build in (heavy_top, pendulum, flexible_pendulum):
-        model, channel, dts, dt_ref = build()
-        for scheme in ("ep", "ed"):
-            ref = fd.simulate(model, scheme=scheme, step_control="fixed", dt=dt_ref)[channel].values
-            span = np.ptp(ref)
-            runs = [("fixed", f"dt {dt:g}", {"step_control": "fixed", "dt": dt}) for dt in dts]
-            runs += [
-                ("adaptive", f"tol {tol:g}", {"step_control": "adaptive", "tolerance": tol})
-                for tol in tolerances
-            ]
-            for _, label, kw in runs:
-                t0 = time.perf_counter()
-                try:
-                    res = fd.simulate(model, scheme=scheme, **kw)
-                except fd.SolverError as e:
-                    print(f"| {build.__name__} | {scheme} | {label} | failed: {str(e)[:80]} | | | | |")
-                    continue
-                wall = time.perf_counter() - t0
-                s = res.attrs["stats"]
-                err = np.abs(res[channel].values - ref).max() / span
-                print(
-                    f"| {build.__name__} | {scheme.upper()} | {label} | {err:.1e} | {s['steps']} | {s['rejected']} "
-                    f"| {s['newton_iterations']} | {wall:.2f} |",
-                    flush=True,
-                )
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("problems", nargs="*", default=list(PROBLEMS), choices=list(PROBLEMS))
+    p.add_argument("--schemes", nargs="*", default=["ed", "ep"])
+    p.add_argument("--repeats", type=int, default=3)
+    a = p.parse_args()
+    for name in a.problems:
+        for scheme in a.schemes:
+            study(name, scheme, a.repeats)
 
 
 if __name__ == "__main__":

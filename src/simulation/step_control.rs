@@ -198,7 +198,11 @@ impl Simulation {
     /// is the cause, and the message says so.
     fn cannot_continue(&self, h: f64, first_h: f64, reason: String) -> StepFailure {
         let t = self.state.t;
-        let ahead = (1..=64).map(|k| t + first_h * k as f64 / 32.0);
+        // Up to the longest step taken so far: the steps may have shrunk over many of them.
+        let horizon = (2.0 * first_h)
+            .max(self.stats.dt_largest)
+            .min(self.settings.t_end - t);
+        let ahead = (1..=64).map(|k| t + horizon * k as f64 / 64.0);
         let reason = ahead
             .filter_map(|t_f| self.system.undefined_time_function(t, t_f))
             .next()
