@@ -31,6 +31,9 @@ pub struct StepReport {
     pub damper_work: f64,
     /// ED: `½Σ|v_j − v_i|²_M + ½Σ(ε_j − ε_i)ᵀK(ε_j − ε_i)` (0 for EP).
     pub numerical_dissipation: f64,
+    /// ED: its parts — the jumps' translational and rotational kinetic energy, and the
+    /// strain (and spring) jumps' energy.
+    pub jump_energies: [f64; 3],
     /// Work of all constraint forces over the step (zero to round-off).
     pub constraint_work: f64,
     /// Largest |C_f| over all constraint rows.
@@ -768,21 +771,23 @@ impl Integrator {
             .map(|sp| -sp.damping * y[layout.coord_delta(sp.coord)].powi(2) / h)
             .sum();
         if ed {
-            let mut d = 0.0;
+            let mut d = [0.0; 3];
             for k in &sys.inertias {
                 let j = layout.node_jump(k.node);
                 let n = &st.nodes[k.node];
                 let dv = V3([y[j], y[j + 1], y[j + 2]]).scale_f(1.0 / h) - n.v;
                 let dw = V3([y[j + 3], y[j + 4], y[j + 5]]).scale_f(1.0 / h) - n.w;
-                d += 0.5 * k.mass * dv.norm_sq() + 0.5 * dw.dot(&k.inertia.mul_v(&dw));
+                d[0] += 0.5 * k.mass * dv.norm_sq();
+                d[1] += 0.5 * dw.dot(&k.inertia.mul_v(&dw));
             }
             for sp in &sys.springs {
-                d += sp.dissipation(ctx, y);
+                d[2] += sp.dissipation(ctx, y);
             }
             for b in &sys.beams {
-                d += b.jump_dissipation(ctx, &b.gather(y));
+                d[2] += b.jump_dissipation(ctx, &b.gather(y));
             }
-            report.numerical_dissipation = d;
+            report.jump_energies = d;
+            report.numerical_dissipation = d.iter().sum();
         }
         report.constraint_work = sys.joints.iter().map(|j| j.step_work(ctx, y)).sum();
         report.max_violation = sys

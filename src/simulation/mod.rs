@@ -123,9 +123,9 @@ pub struct Simulation {
     recent_means: std::collections::VecDeque<StepMeans>,
     /// Adaptive stepping: the step-size controller.
     controller: step_control::Controller,
-    /// The error indicator's energy scale: the largest kinetic + strain + spring energy so
-    /// far, and never less than `energy_floor`.
-    energy_scale: f64,
+    /// The error indicator's energy scales (total, translational, rotational motion energy;
+    /// see `motion_energies`): the largest so far, never less than `energy_floor`.
+    energy_scale: [f64; 3],
     /// The energy scale the model's drives and loads set before the run (see
     /// `energy_scale.rs`).
     pub energy_floor: f64,
@@ -277,12 +277,12 @@ impl Simulation {
             h_next: 0.0,
             recent_means: Default::default(),
             controller: Default::default(),
-            energy_scale: 0.0,
+            energy_scale: [0.0; 3],
             energy_floor,
             load_factor: 0.0,
         };
         sim.h_next = sim.settings.dt;
-        sim.energy_scale = sim.system.motion_energy(&sim.state).max(energy_floor);
+        sim.energy_scale = sim.motion_energies(&sim.state).map(|e| e.max(energy_floor));
         sim.step_end_channels = sim.channels.step_end_channels();
         if statics {
             // The unloaded state, with no reactions yet.
@@ -442,9 +442,10 @@ impl Simulation {
         self.stats.dt_largest = self.stats.dt_largest.max(h);
         self.stats.last_dt = h;
         let e_f = self.energy();
-        self.energy_scale = self
-            .energy_scale
-            .max(self.system.motion_energy(&self.state));
+        let now = self.motion_energies(&self.state);
+        for (scale, e) in self.energy_scale.iter_mut().zip(now) {
+            *scale = scale.max(e);
+        }
         let t = &mut self.totals;
         t.drive_work += report.drive_work;
         t.external_work += report.external_work;

@@ -877,6 +877,17 @@ impl System {
     }
 
     /// Kinetic energy `Σ ½ m v·v + ½ W·J W`.
+    /// Kinetic energy of the nodes' translations and of their rotations.
+    pub fn kinetic_energies(&self, s: &State) -> [f64; 2] {
+        self.inertias.iter().fold([0.0; 2], |[t, r], k| {
+            let n = &s.nodes[k.node];
+            [
+                t + 0.5 * k.mass * n.v.norm_sq(),
+                r + 0.5 * n.w.dot(&k.inertia.mul_v(&n.w)),
+            ]
+        })
+    }
+
     pub fn kinetic_energy(&self, s: &State) -> f64 {
         self.inertias
             .iter()
