@@ -1,6 +1,6 @@
 //! The PyO3 module `flexdyn._core`: conversions and error mapping only.
 
-use crate::model::{self, Scheme};
+use crate::model::{self, Scheme, StepControl};
 use crate::simulation::{SimError, Simulation};
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::create_exception;
@@ -198,6 +198,19 @@ impl PySimulation {
     fn dt(&self) -> f64 {
         self.sim.settings.dt
     }
+    /// Adaptive stepping's tolerance (see `SimulationSettings::tolerance`).
+    #[getter]
+    fn tolerance(&self) -> f64 {
+        self.sim.settings.tolerance
+    }
+    /// `adaptive` or `fixed`.
+    #[getter]
+    fn step_control(&self) -> &'static str {
+        match self.sim.settings.step_control {
+            StepControl::Adaptive => "adaptive",
+            StepControl::Fixed => "fixed",
+        }
+    }
     #[getter]
     fn scheme(&self) -> &'static str {
         match self.sim.system.layout.scheme {
@@ -238,6 +251,8 @@ impl PySimulation {
         d.set_item("pattern_misses", s.pattern_misses)?;
         d.set_item("pattern_rebuilds", s.pattern_rebuilds)?;
         d.set_item("unknowns", self.sim.system.layout.n_unknowns())?;
+        // The energy the step-error indicator is never measured below (J).
+        d.set_item("error_energy_floor", self.sim.energy_floor)?;
         Ok(d)
     }
     /// Residual norms of the Newton iterations of the last step.

@@ -26,9 +26,29 @@ def spin_accel(t):
 
 
 # Simo & Vu-Quoc's blade section (EA 2.8e7 N, EI 1.4e4 N·m², 1.2 kg/m).
-BLADE = dict(ea=2.8e7, ga2=1e7, ga3=1e7, gj=1.4e4, ei2=1.4e4, ei3=1.4e4, m=1.2, i22=1e-4, i33=1e-4)
+BLADE = {
+    "ea": 2.8e7,
+    "ga2": 1e7,
+    "ga3": 1e7,
+    "gj": 1.4e4,
+    "ei2": 1.4e4,
+    "ei3": 1.4e4,
+    "m": 1.2,
+    "i22": 1e-4,
+    "i33": 1e-4,
+}
 # The paper's beam-slider section (section 7.1).
-BEAM = dict(ea=44e6, ga2=2.8e6, ga3=14e6, gj=28e3, ei2=300e3, ei3=23e3, m=1.6, i22=1e-3, i33=11e-3)
+BEAM = {
+    "ea": 44e6,
+    "ga2": 2.8e6,
+    "ga3": 14e6,
+    "gj": 28e3,
+    "ei2": 300e3,
+    "ei3": 23e3,
+    "m": 1.6,
+    "i22": 1e-3,
+    "i33": 11e-3,
+}
 
 
 def spin_up(flexible, t_end=4.0):
@@ -123,10 +143,12 @@ def test_a_cantilever_runs_whatever_its_direction(scheme):
         assert res["time"].values[-1] == pytest.approx(0.05), angle
         assert res.attrs["stats"]["max_constraint_violation"] < 1e-12, angle
         tips.append(np.stack([res[f"tip.{c}"].values for c in "xyz"], axis=1))
-    # Objectivity: every direction gives the same vertical motion, and no in-plane motion
-    # beyond round-off of the rotated geometry (the sag, 0.2 mm at this time, is vertical).
+    # Objectivity: every direction gives the same vertical motion (to 1e-6: the rotated
+    # geometry's round-off, carried through a thousand steps and the step choices, left at
+    # most 1.6e-9 under EP, whose beam keeps its undamped modes; a frame-dependent term would
+    # differ at O(1)), and no in-plane motion (the sag, 0.2 mm at this time, is vertical).
     for angle, tip in zip(range(0, 360, 15), tips):
-        assert np.abs(tip[:, 2] - tips[0][:, 2]).max() < 1e-9 * np.abs(tips[0][:, 2]).max(), angle
+        assert np.abs(tip[:, 2] - tips[0][:, 2]).max() < 1e-6 * np.abs(tips[0][:, 2]).max(), angle
         assert np.abs(tip[:, :2]).max() < 1e-3 * np.abs(tips[0][:, 2]).max(), angle
     assert np.abs(tips[0][:, 2]).max() > 1e-4
 
@@ -163,7 +185,9 @@ def stiff_pendulum(rest, velocity):
     m = fd.Model("stiff pendulum", gravity=[0, 0, -9.81])
     m.node("bob", [1, 0, 0], velocity=velocity)
     m.rigid_body("ball", "bob", mass=2.0, inertia=[0.01, 0.01, 0.01])
-    m.revolute("pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0], spring={"stiffness": 1e16, "rest": rest})
+    m.revolute(
+        "pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0], spring={"stiffness": 1e16, "rest": rest}
+    )
     m.sensor("node_position", "bob_at", node="bob")
     m.settings(t_end=0.5, step_control="fixed", dt=0.01)
     return m

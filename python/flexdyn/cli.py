@@ -110,7 +110,6 @@ def _info(args) -> int:
     joints: dict[str, int] = {}
     for j in d.get("joints", []):
         joints[j["type"]] = joints.get(j["type"], 0) + 1
-    s = d.get("simulation", {})
     print(f"model `{d.get('name', '')}`")
     print(f"  bodies      {len(d.get('bodies', []))}")
     beams = ", ".join(
@@ -126,8 +125,8 @@ def _info(args) -> int:
     print(f"  DOFs        {6 * n['nodes'] + n['coordinates'] - n['constraints']} free")
     print(f"  unknowns    {n['unknowns']} in the Newton system ({sim.scheme.upper()} layout)")
     print(f"  sensors     {len(d.get('sensors', []))} giving {len(sim.channel_names)} channels")
-    control = s.get("step_control", "adaptive")
-    steps = f"tolerance {s.get('tolerance', 1e-3):g}" if control == "adaptive" else f"dt {sim.dt:g} s"
+    control = sim.step_control
+    steps = f"tolerance {sim.tolerance:g}" if control == "adaptive" else f"dt {sim.dt:g} s"
     print(f"  run         {sim.scheme.upper()}, t_end {sim.t_end:g} s, {control} steps ({steps})")
     return 0
 
