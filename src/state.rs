@@ -34,6 +34,15 @@ pub struct State {
 }
 
 impl State {
+    /// No velocities (a static state).
+    pub fn at_rest(&mut self) {
+        for n in &mut self.nodes {
+            n.v = V3::zero();
+            n.w = V3::zero();
+        }
+        self.coord_rates.iter_mut().for_each(|r| *r = 0.0);
+    }
+
     /// Nodes only, at t = 0: no joint coordinates, multipliers or element history.
     pub fn of_nodes(nodes: Vec<NodeState>) -> State {
         State {

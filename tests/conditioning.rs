@@ -74,8 +74,16 @@ fn newton_converges_at_every_step_size_with_round_off_in_the_constraints() {
                 .step(&sim.system, &sim.state, h)
                 .unwrap_or_else(|e| panic!("{scheme:?}, h = {h:e}: {e}"));
             // Held to round-off of the 2.4 m beam's positions.
-            assert!(report.max_violation < 1e-13, "{scheme:?}, h = {h:e}: {}", report.max_violation);
-            assert!(report.iterations <= 4, "{scheme:?}, h = {h:e}: {:?}", report.residuals);
+            assert!(
+                report.max_violation < 1e-13,
+                "{scheme:?}, h = {h:e}: {}",
+                report.max_violation
+            );
+            assert!(
+                report.iterations <= 4,
+                "{scheme:?}, h = {h:e}: {:?}",
+                report.residuals
+            );
         }
     }
 }

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_case2_assemblies import BEAM  # the paper's beam-slider section (section 7.1)
 
 import flexdyn as fd
 
@@ -36,18 +37,6 @@ BLADE = {
     "m": 1.2,
     "i22": 1e-4,
     "i33": 1e-4,
-}
-# The paper's beam-slider section (section 7.1).
-BEAM = {
-    "ea": 44e6,
-    "ga2": 2.8e6,
-    "ga3": 14e6,
-    "gj": 28e3,
-    "ei2": 300e3,
-    "ei3": 23e3,
-    "m": 1.6,
-    "i22": 1e-3,
-    "i33": 11e-3,
 }
 
 

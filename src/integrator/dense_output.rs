@@ -31,8 +31,18 @@ impl Hermite {
     fn at(tau: f64) -> Self {
         let (t2, t3) = (tau * tau, tau * tau * tau);
         Hermite {
-            w: [2.0 * t3 - 3.0 * t2 + 1.0, t3 - 2.0 * t2 + tau, 3.0 * t2 - 2.0 * t3, t3 - t2],
-            dw: [6.0 * t2 - 6.0 * tau, 3.0 * t2 - 4.0 * tau + 1.0, 6.0 * tau - 6.0 * t2, 3.0 * t2 - 2.0 * tau],
+            w: [
+                2.0 * t3 - 3.0 * t2 + 1.0,
+                t3 - 2.0 * t2 + tau,
+                3.0 * t2 - 2.0 * t3,
+                t3 - t2,
+            ],
+            dw: [
+                6.0 * t2 - 6.0 * tau,
+                3.0 * t2 - 4.0 * tau + 1.0,
+                6.0 * tau - 6.0 * t2,
+                3.0 * t2 - 2.0 * tau,
+            ],
         }
     }
     fn value(&self, p0: f64, m0: f64, p1: f64, m1: f64) -> f64 {
@@ -42,10 +52,14 @@ impl Hermite {
         self.dw[0] * p0 + self.dw[1] * m0 + self.dw[2] * p1 + self.dw[3] * m1
     }
     fn value3(&self, p0: V3<f64>, m0: V3<f64>, p1: V3<f64>, m1: V3<f64>) -> V3<f64> {
-        V3(std::array::from_fn(|k| self.value(p0.0[k], m0.0[k], p1.0[k], m1.0[k])))
+        V3(std::array::from_fn(|k| {
+            self.value(p0.0[k], m0.0[k], p1.0[k], m1.0[k])
+        }))
     }
     fn slope3(&self, p0: V3<f64>, m0: V3<f64>, p1: V3<f64>, m1: V3<f64>) -> V3<f64> {
-        V3(std::array::from_fn(|k| self.slope(p0.0[k], m0.0[k], p1.0[k], m1.0[k])))
+        V3(std::array::from_fn(|k| {
+            self.slope(p0.0[k], m0.0[k], p1.0[k], m1.0[k])
+        }))
     }
 }
 
@@ -99,10 +113,24 @@ pub fn state_between(sys: &System, a: &State, b: &State, t: f64) -> State {
     }
     let he = Hermite::at(tau);
     let coords = (0..a.coords.len())
-        .map(|c| he.value(a.coords[c], h * a.coord_rates[c], b.coords[c], h * b.coord_rates[c]))
+        .map(|c| {
+            he.value(
+                a.coords[c],
+                h * a.coord_rates[c],
+                b.coords[c],
+                h * b.coord_rates[c],
+            )
+        })
         .collect();
     let coord_rates = (0..a.coords.len())
-        .map(|c| he.slope(a.coords[c], h * a.coord_rates[c], b.coords[c], h * b.coord_rates[c]) / h)
+        .map(|c| {
+            he.slope(
+                a.coords[c],
+                h * a.coord_rates[c],
+                b.coords[c],
+                h * b.coord_rates[c],
+            ) / h
+        })
         .collect();
     let mut history = a.history.clone();
     let ctx = StepCtx {

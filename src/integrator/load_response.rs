@@ -59,7 +59,9 @@ impl Integrator {
         let bound = (0..layout.n_nodes)
             .map(|a| {
                 let d = layout.node_delta(a);
-                let norm = |k: usize| (f[d + k].powi(2) + f[d + k + 1].powi(2) + f[d + k + 2].powi(2)).sqrt();
+                let norm = |k: usize| {
+                    (f[d + k].powi(2) + f[d + k + 1].powi(2) + f[d + k + 2].powi(2)).sqrt()
+                };
                 norm(0) * sys.length_ref + norm(3)
             })
             .sum();

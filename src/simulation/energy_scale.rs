@@ -43,7 +43,10 @@ fn load_times(sys: &System, t0: f64, t_end: f64) -> Vec<f64> {
             .map(|t| (t, f.value(t).abs()))
             .filter(|(_, v)| v.is_finite())
             .fold((t0, 0.0), |best, x| if x.1 > best.1 { x } else { best });
-        if !times.iter().any(|t| (t - peak.0).abs() <= 1e-12 * t_end.abs().max(1.0)) {
+        if !times
+            .iter()
+            .any(|t| (t - peak.0).abs() <= 1e-12 * t_end.abs().max(1.0))
+        {
             times.push(peak.0);
         }
     }

@@ -6,7 +6,7 @@
 //! for some weights W: one KKT matrix, factored once, several right-hand sides.
 
 use crate::joints::RateTerm;
-use crate::model::Scheme;
+use crate::model::{Model, Scheme};
 use crate::state::State;
 use crate::system::layout::Layout;
 use crate::system::sparse::NewtonMatrix;
@@ -170,7 +170,11 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
     // coordinates (joint rates, a sliding contact point's ζ̇: weight 1e-14) move first: a
     // collar launched along a beam at rest slides along it rather than dragging the beam.
     let any_given = sys.velocity_given.iter().any(|&g| g);
-    let follow: Vec<bool> = sys.velocity_given.iter().map(|&g| any_given && !g).collect();
+    let follow: Vec<bool> = sys
+        .velocity_given
+        .iter()
+        .map(|&g| any_given && !g)
+        .collect();
     let Some(mut p) = VelocityProjection::new(sys, state, &follow) else {
         return change;
     };
@@ -196,10 +200,9 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
         p.matrix.solve(&mut next);
         x = next;
     }
-    for a in 0..lay.n_nodes {
+    for (a, (n, change)) in state.nodes.iter_mut().zip(change.iter_mut()).enumerate() {
         let (v, w) = p.node(&x, a);
-        let n = &mut state.nodes[a];
-        change[a] = (v - n.v)
+        *change = (v - n.v)
             .norm()
             .max((n.r.mul_v(&(w - n.w))).norm() * sys.length_ref);
         n.v = v;
@@ -209,6 +212,73 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
         state.coord_rates[c] = x[lay.coord_delta(c)];
     }
     change
+}
+
+/// Makes the initial velocities consistent with the joints (see
+/// [`project_initial_velocities`]). Velocities the model did not give are simply completed;
+/// changing given ones returns a warning that says which nodes, by how much, and — when
+/// drives already moving at t = 0 make the start impulsive — which drives.
+pub fn make_consistent(model: &Model, system: &System, state: &mut State) -> Option<String> {
+    let change = project_initial_velocities(system, state);
+    let v_scale = state
+        .nodes
+        .iter()
+        .map(|n| n.v.norm() + n.omega().norm() * system.length_ref)
+        .fold(1e-12f64, f64::max);
+    let adjusted = |a: usize| system.velocity_given[a] && change[a] > 1e-9 * v_scale;
+    let changed: Vec<String> = (0..change.len())
+        .filter(|&a| adjusted(a))
+        .map(|a| format!("`{}`", system.node_names[a]))
+        .collect();
+    if changed.is_empty() {
+        return None;
+    }
+    let worst = change.iter().cloned().fold(0.0, f64::max);
+    let moving = drives_moving_adjusted_nodes(model, system, &adjusted);
+    let why = if moving.is_empty() {
+        "give consistent velocities to avoid this".to_string()
+    } else {
+        format!(
+            "the drive(s) of {} start moving at t = 0, so the start is impulsive; give the nodes those velocities, or start the drives from rest, to avoid this",
+            moving.join(", ")
+        )
+    };
+    Some(format!(
+        "initial velocities of node(s) {} were adjusted to satisfy the joints' velocity constraints (largest change {worst:.4} m/s, or rad/s times the model size); {why}",
+        changed.join(", ")
+    ))
+}
+
+/// The drives already moving at t = 0 on joints of nodes whose given velocities were
+/// adjusted (`adjusted(node)`): they make the start impulsive — the fix is then the model's
+/// choice, not a slip.
+fn drives_moving_adjusted_nodes(
+    model: &Model,
+    system: &System,
+    adjusted: &dyn Fn(usize) -> bool,
+) -> Vec<String> {
+    // A model node, or one of a beam's nodes `<beam>.<k>`.
+    let touches = |n: &str| {
+        (0..system.node_names.len()).any(|a| {
+            let name = &system.node_names[a];
+            adjusted(a) && (name == n || name.strip_prefix(n).is_some_and(|k| k.starts_with('.')))
+        })
+    };
+    model
+        .joints
+        .iter()
+        .filter(|j| {
+            let (n1, n2) = j.nodes();
+            touches(n1) || touches(n2)
+        })
+        .filter_map(|j| system.joint(j.name()))
+        .flat_map(|info| info.coords.iter().map(move |c| (info, c)))
+        .filter(|(_, c)| {
+            c.drive
+                .is_some_and(|d| system.drives[d].function.rate(0.0) != 0.0)
+        })
+        .map(|(info, c)| format!("`{}` ({})", info.name, c.name))
+        .collect()
 }
 
 /// The largest kinetic energy the drives impose over `[0, t_end]`: at each time, the least
@@ -248,7 +318,11 @@ pub fn drive_energy(sys: &System, state: &State, t_end: f64) -> f64 {
     }
     let mut times: Vec<f64> = (0..=256).map(|k| t_end * k as f64 / 256.0).collect();
     for d in &sys.drives {
-        times.extend(d.function.segment_midpoints().filter(|t| (0.0..=t_end).contains(t)));
+        times.extend(
+            d.function
+                .segment_midpoints()
+                .filter(|t| (0.0..=t_end).contains(t)),
+        );
     }
     times.iter().fold(0.0f64, |m, &t| {
         let rates: Vec<f64> = sys.drives.iter().map(|d| d.target_rate(t)).collect();

@@ -149,99 +149,12 @@ impl Simulation {
         let mut state = system.initial.clone();
         let mut warnings = Vec::new();
         if !statics && settings.preload {
-            // Start from the static equilibrium under the loads and gravity at t = 0 (drives
-            // at their t = 0 values) and, for initial spins, their steady-rotation inertia:
-            // the dynamic run then begins without the transient of a load (or a rotor's
-            // centrifugal stretch) appearing on an unloaded structure.
-            let mut static_model = model.clone();
-            static_model.simulation.analysis = Analysis::Static;
-            let mut pre = Simulation::with_scheme(&static_model, Scheme::Ep)?;
-            pre.solve_static().map_err(|e| {
-                SimError::Step(StepFailure {
-                    reason: format!(
-                        "the static pre-load (simulation.preload) found no equilibrium: {}",
-                        e.reason
-                    ),
-                    ..e
-                })
-            })?;
-            for ((n, p), spin) in state
-                .nodes
-                .iter_mut()
-                .zip(&pre.state.nodes)
-                .zip(&system.node_spin)
-            {
-                n.x = p.x;
-                n.r = p.r;
-                // A spinning node's velocities follow it to its steady-spin position.
-                if let Some(spin) = spin {
-                    n.v = spin.omega.cross(&(n.x - spin.center));
-                    n.w = n.r.tmul_v(&spin.omega);
-                }
-            }
-            state.coords.clone_from(&pre.state.coords);
-            state.history.clone_from(&pre.state.history);
-            state.lambda.clone_from(&pre.state.lambda);
+            start_from_static_equilibrium(model, &system, &mut state)?;
         }
-        let change = if statics {
-            for n in &mut state.nodes {
-                n.v = V3::zero();
-                n.w = V3::zero();
-            }
-            state.coord_rates.iter_mut().for_each(|r| *r = 0.0);
-            vec![0.0; state.nodes.len()]
-        } else {
-            project_initial_velocities(&system, &mut state)
-        };
-        let v_scale = state
-            .nodes
-            .iter()
-            .map(|n| n.v.norm() + n.omega().norm() * system.length_ref)
-            .fold(1e-12f64, f64::max);
-        // Velocities the model did not give are simply completed; changing given ones is said.
-        let changed: Vec<String> = (0..change.len())
-            .filter(|&a| system.velocity_given[a] && change[a] > 1e-9 * v_scale)
-            .map(|a| format!("`{}`", system.node_names[a]))
-            .collect();
-        if !changed.is_empty() {
-            let worst = change.iter().cloned().fold(0.0, f64::max);
-            // A drive already moving at t = 0 on a joint of an adjusted node makes the start
-            // impulsive: say which, since the fix is then the model's choice, not a slip.
-            let adjusted = |n: &str| {
-                (0..change.len()).any(|a| {
-                    system.velocity_given[a] && change[a] > 1e-9 * v_scale && {
-                        let name = &system.node_names[a];
-                        name == n || name.strip_prefix(n).is_some_and(|k| k.starts_with('.'))
-                    }
-                })
-            };
-            let moving: Vec<String> = model
-                .joints
-                .iter()
-                .filter(|j| {
-                    let (n1, n2) = j.nodes();
-                    adjusted(n1) || adjusted(n2)
-                })
-                .filter_map(|j| system.joint(j.name()))
-                .flat_map(|info| info.coords.iter().map(move |c| (info, c)))
-                .filter(|(_, c)| {
-                    c.drive
-                        .is_some_and(|d| system.drives[d].function.rate(0.0) != 0.0)
-                })
-                .map(|(info, c)| format!("`{}` ({})", info.name, c.name))
-                .collect();
-            let why = if moving.is_empty() {
-                "give consistent velocities to avoid this".to_string()
-            } else {
-                format!(
-                    "the drive(s) of {} start moving at t = 0, so the start is impulsive; give the nodes those velocities, or start the drives from rest, to avoid this",
-                    moving.join(", ")
-                )
-            };
-            warnings.push(format!(
-                "initial velocities of node(s) {} were adjusted to satisfy the joints' velocity constraints (largest change {worst:.4} m/s, or rad/s times the model size); {why}",
-                changed.join(", ")
-            ));
+        if statics {
+            state.at_rest();
+        } else if let Some(w) = initial_velocities::make_consistent(model, &system, &mut state) {
+            warnings.push(w);
         }
         let mut integrator = Integrator::new(&system, &settings);
         let energy_floor = if statics || settings.step_control == StepControl::Fixed {
@@ -551,6 +464,47 @@ impl Simulation {
     }
 }
 
+/// A static pre-load: the state becomes the static equilibrium under the loads and gravity at
+/// t = 0 (drives at their t = 0 values) and, for initial spins, their steady-rotation inertia,
+/// so the dynamic run begins without the transient of a load (or a rotor's centrifugal
+/// stretch) appearing on an unloaded structure.
+fn start_from_static_equilibrium(
+    model: &Model,
+    system: &System,
+    state: &mut State,
+) -> Result<(), SimError> {
+    let mut static_model = model.clone();
+    static_model.simulation.analysis = Analysis::Static;
+    let mut pre = Simulation::with_scheme(&static_model, Scheme::Ep)?;
+    pre.solve_static().map_err(|e| {
+        SimError::Step(StepFailure {
+            reason: format!(
+                "the static pre-load (simulation.preload) found no equilibrium: {}",
+                e.reason
+            ),
+            ..e
+        })
+    })?;
+    for ((n, p), spin) in state
+        .nodes
+        .iter_mut()
+        .zip(&pre.state.nodes)
+        .zip(&system.node_spin)
+    {
+        n.x = p.x;
+        n.r = p.r;
+        // A spinning node's velocities follow it to its steady-spin position.
+        if let Some(spin) = spin {
+            n.v = spin.omega.cross(&(n.x - spin.center));
+            n.w = n.r.tmul_v(&spin.omega);
+        }
+    }
+    state.coords.clone_from(&pre.state.coords);
+    state.history.clone_from(&pre.state.history);
+    state.lambda.clone_from(&pre.state.lambda);
+    Ok(())
+}
+
 /// Over-constrained joints are a model error, reported by name: a dependence among the
 /// constraint rows in the initial configuration would only show up as a singular matrix.
 fn check_redundancy(model: &Model, system: &System) -> Result<(), ModelErrors> {
@@ -594,4 +548,3 @@ fn check_redundancy(model: &Model, system: &System) -> Result<(), ModelErrors> {
         .collect();
     Err(ModelErrors(errors))
 }
-

@@ -143,5 +143,4 @@ impl Simulation {
             std::mem::take(&mut self.values),
         )
     }
-
 }

@@ -48,7 +48,13 @@ impl Simulation {
         // the strain and spring energy either may take): a heavy top's precession error
         // against its precession, not against its 35× larger spin energy.
         let motion = (0..2)
-            .map(|k| relative((motion[k] - noise[k]).max(0.0), scales[k + 1], self.settings.tolerance))
+            .map(|k| {
+                relative(
+                    (motion[k] - noise[k]).max(0.0),
+                    scales[k + 1],
+                    self.settings.tolerance,
+                )
+            })
             .fold(0.0, f64::max);
         // ED's jumps likewise: of translations, rotations, and strains (against all).
         let d = report.jump_energies;
@@ -145,7 +151,10 @@ impl Simulation {
         let dv = 16.0 * f64::EPSILON * self.system.length_ref / h;
         let dw = 16.0 * f64::EPSILON / h;
         self.system.inertias.iter().fold([0.0; 2], |[t, r], k| {
-            [t + 0.5 * k.mass * dv * dv, r + 0.5 * k.inertia.trace() * dw * dw]
+            [
+                t + 0.5 * k.mass * dv * dv,
+                r + 0.5 * k.inertia.trace() * dw * dw,
+            ]
         })
     }
 
@@ -162,16 +171,17 @@ impl Simulation {
         let mut previous_trial: Option<(f64, f64)> = None;
         loop {
             self.follow_contacts();
-            let tried = self
-                .integrator
-                .step(&self.system, &self.state, h)
-                .and_then(|(state, report)| {
-                    let e = self.local_error(&state, h, &report)?;
-                    Ok((state, report, e))
-                });
+            let tried =
+                self.integrator
+                    .step(&self.system, &self.state, h)
+                    .and_then(|(state, report)| {
+                        let e = self.local_error(&state, h, &report)?;
+                        Ok((state, report, e))
+                    });
             match tried {
                 Ok((state, report, e)) => {
-                    let stuck = previous_trial.is_some_and(|(h0, e0)| h < 0.67 * h0 && e > 0.9 * e0);
+                    let stuck =
+                        previous_trial.is_some_and(|(h0, e0)| h < 0.67 * h0 && e > 0.9 * e0);
                     previous_trial = Some((h, e));
                     if e <= 1.0 || stuck {
                         if e > 1.0 {
@@ -182,7 +192,11 @@ impl Simulation {
                         // Keep h through small increases under modified Newton: an unchanged
                         // step keeps its factors valid (the Newton matrix depends on h).
                         let keep = self.settings.modified_newton && (1.0..1.25).contains(&factor);
-                        self.h_next = if keep { h } else { (h * factor).clamp(dt_min, dt_max) };
+                        self.h_next = if keep {
+                            h
+                        } else {
+                            (h * factor).clamp(dt_min, dt_max)
+                        };
                         return Ok(());
                     }
                     self.stats.rejected += 1;
@@ -230,7 +244,9 @@ impl Simulation {
         let reason = ahead
             .filter_map(|t_f| self.system.undefined_time_function(t, t_f))
             .next()
-            .map_or(reason, |why| format!("the steps shrank to dt_min approaching a singularity: {why}"));
+            .map_or(reason, |why| {
+                format!("the steps shrank to dt_min approaching a singularity: {why}")
+            });
         StepFailure {
             t,
             h,

@@ -5,8 +5,8 @@ mod beam_mesh;
 pub mod layout;
 pub mod redundancy;
 mod sliding;
-mod time_functions;
 pub mod sparse;
+mod time_functions;
 
 use crate::beam::element::BeamElement;
 use crate::beam::line_load::FollowerLineLoad;
@@ -828,7 +828,10 @@ impl System {
                 })
                 .fold(0.0f64, f64::max);
         let force_roundoff = springs.iter().fold(1e-6 * force_ref, |m, sp| {
-            let reach = coords0[sp.coord].abs().max(sp.law.reference_magnitude()).max(1.0);
+            let reach = coords0[sp.coord]
+                .abs()
+                .max(sp.law.reference_magnitude())
+                .max(1.0);
             m.max(1e-14 * sp.law.stiffness_scale() * reach)
         });
         let n_c = coords0.len();
