@@ -74,16 +74,21 @@ impl Channels {
         &self.step_channels
     }
 
-    /// Indices of the channels that are step-end bookkeeping — energies and works (the
-    /// energy identity holds at step ends), joint violations (the constraints hold at step
-    /// ends): between step ends they are interpolated linearly, not evaluated on an
-    /// interpolated state.
+    /// Indices of the channels interpolated linearly between step ends rather than evaluated
+    /// on the interpolated state: bookkeeping — energies and works (the energy identity holds
+    /// at step ends), joint violations (the constraints hold at step ends) — and what comes
+    /// from strains — section forces, strains, curvatures and strain energies. A strain is a
+    /// small difference of large numbers (EA·e, e = Rᵀx′ − 1): interpolated kinematics exact to
+    /// 1e-5 over a step of a quarter turn gave a 2 m steel-like bar spinning freely 1.2 kN of
+    /// tension between steps instead of its steady 17 N.
     pub fn step_end_channels(&self) -> Vec<usize> {
         (0..self.sources.len())
             .filter(|&c| match &self.sources[c] {
                 (Source::Energy | Source::Violation(_), _) => true,
                 (Source::Drive(_), k) => *k == 1,
                 (Source::SlidingDrive(..), k) => *k == 2,
+                (Source::BeamSection(..), k) => *k < 12,
+                (Source::BeamEnergy(_), k) => *k == 1,
                 _ => false,
             })
             .collect()

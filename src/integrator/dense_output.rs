@@ -9,9 +9,10 @@
 //! - velocities as the interpolants' rates; beam Gauss-point history by the element's own
 //!   incremental update with the interpolated increments (as a step ending there would).
 //!
-//! The interpolated state does not satisfy the joints exactly (by O(h⁴)), and the energy
-//! identities belong to step ends: bookkeeping channels are interpolated linearly instead
-//! (`Channels::step_end_channels`).
+//! The interpolated state does not satisfy the joints exactly (by O(h⁴)), the energy
+//! identities belong to step ends, and strains are small differences of large numbers that
+//! O(h⁴) kinematics does not give to O(EA⁻¹): bookkeeping and strain-derived channels are
+//! interpolated linearly instead (`Channels::step_end_channels`).
 
 use crate::elements::StepCtx;
 use crate::rotation::{cayley, cayley_log, inv_i_minus_half_tilde, orthonormalize};
@@ -45,20 +46,21 @@ impl Hermite {
             ],
         }
     }
-    fn value(&self, p0: f64, m0: f64, p1: f64, m1: f64) -> f64 {
-        self.w[0] * p0 + self.w[1] * m0 + self.w[2] * p1 + self.w[3] * m1
+    /// From `[p0, m0, p1, m1]`.
+    fn value(&self, ends: [f64; 4]) -> f64 {
+        (0..4).map(|k| self.w[k] * ends[k]).sum()
     }
-    fn slope(&self, p0: f64, m0: f64, p1: f64, m1: f64) -> f64 {
-        self.dw[0] * p0 + self.dw[1] * m0 + self.dw[2] * p1 + self.dw[3] * m1
+    fn slope(&self, ends: [f64; 4]) -> f64 {
+        (0..4).map(|k| self.dw[k] * ends[k]).sum()
     }
     fn value3(&self, p0: V3<f64>, m0: V3<f64>, p1: V3<f64>, m1: V3<f64>) -> V3<f64> {
         V3(std::array::from_fn(|k| {
-            self.value(p0.0[k], m0.0[k], p1.0[k], m1.0[k])
+            self.value([p0.0[k], m0.0[k], p1.0[k], m1.0[k]])
         }))
     }
     fn slope3(&self, p0: V3<f64>, m0: V3<f64>, p1: V3<f64>, m1: V3<f64>) -> V3<f64> {
         V3(std::array::from_fn(|k| {
-            self.slope(p0.0[k], m0.0[k], p1.0[k], m1.0[k])
+            self.slope([p0.0[k], m0.0[k], p1.0[k], m1.0[k]])
         }))
     }
 }
@@ -112,26 +114,17 @@ pub fn state_between(sys: &System, a: &State, b: &State, t: f64) -> State {
         nodes.push(node);
     }
     let he = Hermite::at(tau);
-    let coords = (0..a.coords.len())
+    let (coords, coord_rates) = (0..a.coords.len())
         .map(|c| {
-            he.value(
+            let ends = [
                 a.coords[c],
                 h * a.coord_rates[c],
                 b.coords[c],
                 h * b.coord_rates[c],
-            )
+            ];
+            (he.value(ends), he.slope(ends) / h)
         })
-        .collect();
-    let coord_rates = (0..a.coords.len())
-        .map(|c| {
-            he.slope(
-                a.coords[c],
-                h * a.coord_rates[c],
-                b.coords[c],
-                h * b.coord_rates[c],
-            ) / h
-        })
-        .collect();
+        .unzip();
     let mut history = a.history.clone();
     let ctx = StepCtx {
         layout,
