@@ -218,21 +218,30 @@ def test_samples_inside_long_steps_are_as_accurate_as_the_step_ends():
     assert samples < 2 * ends
 
 
-def pendulum_with_a_singular_drive():
-    m = fd.Model("singular drive", gravity=[0, 0, -9.81])
+def pendulum_with_an_undefined_function(where):
+    """A pendulum whose drive, or the scale of a force on it, stops being defined at 0.3 s."""
+    m = fd.Model("undefined function", gravity=[0, 0, -9.81])
     m.node("bob", [1, 0, 0]).rigid_body("ball", "bob", mass=1.0, inertia=[0.01, 0.01, 0.01])
-    m.revolute("pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0], drive="sqrt(0.3 - t)")
+    drive = "sqrt(0.3 - t)" if where == "drive" else None
+    m.revolute("pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0], drive=drive)
+    if where == "load":
+        m.force("push", "bob", [0, 0, 1.0], scale="log(0.3 - t)")
     m.sensor("joint_coordinate", "angle", joint="pin")
     m.settings(t_end=1.0)
     return m
 
 
 @pytest.mark.parametrize("step_control", ["adaptive", "fixed"])
-def test_a_drive_undefined_after_some_time_is_named_as_the_cause(step_control):
+@pytest.mark.parametrize(
+    "where, name", [("drive", "the drive `pin.drive_phi`"), ("load", "the scale of load `push`")]
+)
+def test_a_function_undefined_after_some_time_is_named_as_the_cause(where, name, step_control):
+    # sqrt(0.3 - t) and log(0.3 - t) are NaN after 0.3 s (and their rates infinite at it):
+    # the run stops there naming the function, not blaming the tolerance or a joint row.
     with pytest.raises(fd.SolverError) as e:
-        fd.simulate(pendulum_with_a_singular_drive(), step_control=step_control)
+        fd.simulate(pendulum_with_an_undefined_function(where), step_control=step_control)
     message = str(e.value)
-    assert "drive `pin.drive_phi` is not defined at t = 0.3" in message
+    assert f"{name} is not defined at t = 0.3" in message
     assert "tolerance" not in message
     # Every step before it is kept.
     t = e.value.results["time"].values
