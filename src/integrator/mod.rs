@@ -708,35 +708,68 @@ impl Integrator {
         ctx: &StepCtx,
         mut report: StepReport,
     ) -> (State, StepReport) {
+        let state = self.end_state(sys, ctx);
+        self.account_energy(sys, ctx, &mut report);
+        let y = &self.y;
+        report.max_violation = sys
+            .joints
+            .iter()
+            .flat_map(|j| {
+                let v = j.violation(ctx, y);
+                v.into_iter().take(j.n_rows())
+            })
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        report.reactions = sys.joints.iter().map(|j| j.reaction(ctx, y)).collect();
+        report.path_rates = sys
+            .joints
+            .iter()
+            .map(|j| match j.as_sliding() {
+                Some(sl) => {
+                    let z = state.coords[sl.coord];
+                    let (_, _, speed) = sl.contact(&state, z);
+                    (speed, 1.0 / sl.arc.deta_dzeta(z))
+                }
+                None => (0.0, 0.0),
+            })
+            .collect();
+        (state, report)
+    }
+
+    /// The state at the end of the converged step: positions, rotations, velocities from
+    /// `Δ = h (V_start + V_f)/2` (V_start = V_i under EP, V_j under ED; zero velocities in
+    /// statics), coordinates, multipliers and element history.
+    fn end_state(&self, sys: &System, ctx: &StepCtx) -> State {
         let layout = sys.layout;
         let ed = layout.ed();
-        let h = ctx.h;
-        let st = ctx.state;
-        let y = &self.y;
-        let mut nodes = Vec::with_capacity(st.nodes.len());
-        for (a, n) in st.nodes.iter().enumerate() {
-            let d = layout.node_delta(a);
-            let dx = V3([y[d], y[d + 1], y[d + 2]]);
-            let r = V3([y[d + 3], y[d + 4], y[d + 5]]);
-            let (vs, ws) = if ctx.is_static() {
-                // Zero velocities at f: v_f = 2Δx/h − v_start.
-                (dx.scale_f(2.0 / h), r.scale_f(2.0 / h))
-            } else if ed {
-                let j = layout.node_jump(a);
-                (
-                    V3([y[j], y[j + 1], y[j + 2]]).scale_f(1.0 / h),
-                    V3([y[j + 3], y[j + 4], y[j + 5]]).scale_f(1.0 / h),
-                )
-            } else {
-                (n.v, n.w)
-            };
-            nodes.push(NodeState {
-                x: n.x + dx,
-                r: orthonormalize(&n.r.mul_m(&cayley(&r))),
-                v: dx.scale_f(2.0 / h) - vs,
-                w: r.scale_f(2.0 / h) - ws,
-            });
-        }
+        let (h, st, y) = (ctx.h, ctx.state, &self.y);
+        let nodes = st
+            .nodes
+            .iter()
+            .enumerate()
+            .map(|(a, n)| {
+                let d = layout.node_delta(a);
+                let dx = V3([y[d], y[d + 1], y[d + 2]]);
+                let r = V3([y[d + 3], y[d + 4], y[d + 5]]);
+                let (vs, ws) = if ctx.is_static() {
+                    // Zero velocities at f: v_f = 2Δx/h − v_start.
+                    (dx.scale_f(2.0 / h), r.scale_f(2.0 / h))
+                } else if ed {
+                    let j = layout.node_jump(a);
+                    (
+                        V3([y[j], y[j + 1], y[j + 2]]).scale_f(1.0 / h),
+                        V3([y[j + 3], y[j + 4], y[j + 5]]).scale_f(1.0 / h),
+                    )
+                } else {
+                    (n.v, n.w)
+                };
+                NodeState {
+                    x: n.x + dx,
+                    r: orthonormalize(&n.r.mul_m(&cayley(&r))),
+                    v: dx.scale_f(2.0 / h) - vs,
+                    w: r.scale_f(2.0 / h) - ws,
+                }
+            })
+            .collect();
         let mut coords = st.coords.clone();
         let mut rates = st.coord_rates.clone();
         for c in 0..layout.n_coords {
@@ -751,11 +784,23 @@ impl Integrator {
             coords[c] += dq;
             rates[c] = 2.0 * dq / h - start;
         }
-        let lambda = (0..layout.n_rows)
-            .map(|r| ctx.s * y[layout.mult(r)])
-            .collect();
+        State {
+            t: ctx.t_f,
+            nodes,
+            coords,
+            coord_rates: rates,
+            lambda: (0..layout.n_rows)
+                .map(|r| ctx.s * y[layout.mult(r)])
+                .collect(),
+            history: self.history_f(sys, ctx),
+        }
+    }
 
-        // Energy bookkeeping (ed-scheme-notes §3.4): E_f − E_i = W_drive + W_ext + W_damp − D.
+    /// The step's energy bookkeeping (ed-scheme-notes §3.4): `E_f − E_i = W_drive + W_ext +
+    /// W_damp − D`, and the constraint forces' work (zero to round-off).
+    fn account_energy(&self, sys: &System, ctx: &StepCtx, report: &mut StepReport) {
+        let layout = sys.layout;
+        let (h, st, y) = (ctx.h, ctx.state, &self.y);
         report.drive_works = sys.drives.iter().map(|d| d.step_work(ctx, y)).collect();
         report.drive_work = report.drive_works.iter().sum();
         report.drive_forces = sys.drives.iter().map(|d| d.force(ctx, y)).collect();
@@ -770,7 +815,7 @@ impl Integrator {
             .iter()
             .map(|sp| -sp.damping * y[layout.coord_delta(sp.coord)].powi(2) / h)
             .sum();
-        if ed {
+        if layout.ed() {
             let mut d = [0.0; 3];
             for k in &sys.inertias {
                 let j = layout.node_jump(k.node);
@@ -790,35 +835,5 @@ impl Integrator {
             report.numerical_dissipation = d.iter().sum();
         }
         report.constraint_work = sys.joints.iter().map(|j| j.step_work(ctx, y)).sum();
-        report.max_violation = sys
-            .joints
-            .iter()
-            .flat_map(|j| {
-                let v = j.violation(ctx, y);
-                v.into_iter().take(j.n_rows())
-            })
-            .fold(0.0f64, |m, v| m.max(v.abs()));
-        report.reactions = sys.joints.iter().map(|j| j.reaction(ctx, y)).collect();
-        let state = State {
-            t: ctx.t_f,
-            nodes,
-            coords,
-            coord_rates: rates,
-            lambda,
-            history: self.history_f(sys, ctx),
-        };
-        report.path_rates = sys
-            .joints
-            .iter()
-            .map(|j| match j.as_sliding() {
-                Some(sl) => {
-                    let z = state.coords[sl.coord];
-                    let (_, _, speed) = sl.contact(&state, z);
-                    (speed, 1.0 / sl.arc.deta_dzeta(z))
-                }
-                None => (0.0, 0.0),
-            })
-            .collect();
-        (state, report)
     }
 }
