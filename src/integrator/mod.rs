@@ -327,6 +327,8 @@ impl Integrator {
         let res = &mut self.res;
         let activity = &mut self.activity;
         let vals = &mut self.matrix.values;
+        // Each kernel's rows before it adds to them: its contribution's magnitude is activity.
+        let mut before = [0.0f64; crate::elements::MAX_LOCAL];
         macro_rules! run {
             ($list:expr, $pos:expr) => {
                 for (k, p) in $list.iter().zip($pos.iter()) {
@@ -336,7 +338,6 @@ impl Integrator {
                         None
                     };
                     let idx = k.unknowns();
-                    let mut before = [0.0f64; crate::elements::MAX_LOCAL];
                     for (b, &g) in before.iter_mut().zip(idx) {
                         *b = res[g];
                     }

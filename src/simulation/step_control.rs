@@ -44,9 +44,7 @@ impl Simulation {
         };
         let noise = self.roundoff_energy(h);
         let scales = self.energy_scales(end);
-        // Translation and rotation each against the energy of its own kind of motion (with
-        // the strain and spring energy either may take): a heavy top's precession error
-        // against its precession, not against its 35× larger spin energy.
+        // [translational, rotational] errors against scales [total, translational, rotational].
         let motion = (0..2)
             .map(|k| {
                 relative(
