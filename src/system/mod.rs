@@ -892,13 +892,7 @@ impl System {
     }
 
     pub fn kinetic_energy(&self, s: &State) -> f64 {
-        self.inertias
-            .iter()
-            .map(|k| {
-                let n = &s.nodes[k.node];
-                0.5 * k.mass * n.v.norm_sq() + 0.5 * n.w.dot(&k.inertia.mul_v(&n.w))
-            })
-            .sum()
+        self.kinetic_energies(s).iter().sum()
     }
 
     /// Kinetic and strain energy of one beam (its share of the lumped inertia; the strain
