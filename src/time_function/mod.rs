@@ -1,56 +1,30 @@
 //! Functions of time for drives and loads: constants, expressions of `t` and tables.
 //!
-//! Expressions are parsed by `exmex`, a pure expression evaluator: a model file can name
-//! arithmetic, `sin`, `cos`, `exp`, … of `t` and the constant `pi`, and nothing else — it can
-//! never execute code. Derivatives come from exmex's symbolic differentiation, so prescribed
-//! motions have consistent velocities.
+//! Expressions are written in a small pure language ([`expression`]): a model file can name
+//! arithmetic, `sin`, `cos`, `exp`, …, comparisons and conditionals of `t` and the constants
+//! `pi`, `tau`, `e`, and nothing else — it can never execute code. Value, rate and
+//! acceleration come from one evaluation over second-order Taylor numbers ([`jet`]), so
+//! prescribed motions have exact, consistent velocities and accelerations.
+
+pub mod expression;
+pub mod jet;
 
 use crate::model::TimeFunctionSpec;
-use exmex::{Differentiate, Express, FlatEx};
+use expression::Expression;
+use jet::Jet;
 
 #[derive(Clone, Debug)]
 pub enum TimeFunction {
     Constant(f64),
     Expression {
         text: String,
-        value: FlatEx<f64>,
-        /// `None` when the expression does not depend on `t`.
-        rate: Option<FlatEx<f64>>,
-        accel: Option<FlatEx<f64>>,
+        expression: Expression,
     },
     /// Piecewise-linear table; constant beyond its ends.
     Table {
         t: Vec<f64>,
         v: Vec<f64>,
     },
-}
-
-/// Replace the identifier `pi` by exmex's `PI` so users can write the natural spelling.
-fn normalise_constants(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    let mut ident = String::new();
-    let flush = |ident: &mut String, out: &mut String| {
-        if ident == "pi" {
-            out.push_str("PI");
-        } else {
-            out.push_str(ident);
-        }
-        ident.clear();
-    };
-    for ch in text.chars() {
-        if ch.is_ascii_alphanumeric() || ch == '_' || (ch == '.' && ident.is_empty()) {
-            if ch == '.' {
-                out.push(ch);
-            } else {
-                ident.push(ch);
-            }
-        } else {
-            flush(&mut ident, &mut out);
-            out.push(ch);
-        }
-    }
-    flush(&mut ident, &mut out);
-    out
 }
 
 impl TimeFunction {
@@ -64,39 +38,18 @@ impl TimeFunction {
                 Ok(TimeFunction::Constant(*c))
             }
             TimeFunctionSpec::Expression(text) => {
-                let norm = normalise_constants(text);
-                let value = exmex::parse::<f64>(&norm)
-                    .map_err(|e| format!("cannot parse expression `{text}`: {}", e.msg()))?;
-                let names = value.var_names().to_vec();
-                if let Some(bad) = names.iter().find(|n| n.as_str() != "t") {
-                    return Err(format!(
-                        "expression `{text}` uses unknown name `{bad}`; only the time `t` and the constant `pi` are available"
-                    ));
-                }
-                let (rate, accel) = if names.is_empty() {
-                    (None, None)
-                } else {
-                    let r = value
-                        .clone()
-                        .partial(0)
-                        .map_err(|e| format!("cannot differentiate `{text}`: {}", e.msg()))?;
-                    let a = r
-                        .clone()
-                        .partial(0)
-                        .map_err(|e| format!("cannot differentiate `{text}` twice: {}", e.msg()))?;
-                    (Some(r), Some(a))
-                };
+                let expression = Expression::parse(text)
+                    .map_err(|e| format!("cannot use expression `{}`: {e}", abbreviated(text)))?;
                 let f = TimeFunction::Expression {
                     text: text.clone(),
-                    value,
-                    rate,
-                    accel,
+                    expression,
                 };
                 // Evaluate once to catch e.g. `log(t - 1)` at t = 0 before a run starts.
                 let v0 = f.value(0.0);
                 if !v0.is_finite() {
                     return Err(format!(
-                        "expression `{text}` is not finite at t = 0 (value {v0})"
+                        "expression `{}` is not finite at t = 0 (value {v0})",
+                        abbreviated(text)
                     ));
                 }
                 Ok(f)
@@ -126,7 +79,7 @@ impl TimeFunction {
     pub fn value(&self, time: f64) -> f64 {
         match self {
             TimeFunction::Constant(c) => *c,
-            TimeFunction::Expression { value, rate, .. } => eval(value, rate.is_some(), time),
+            TimeFunction::Expression { expression, .. } => expression.eval(time).v,
             TimeFunction::Table { t, v } => {
                 let (k, s) = locate(t, time);
                 if t.len() == 1 {
@@ -142,9 +95,7 @@ impl TimeFunction {
     pub fn rate(&self, time: f64) -> f64 {
         match self {
             TimeFunction::Constant(_) => 0.0,
-            TimeFunction::Expression { rate, .. } => {
-                rate.as_ref().map_or(0.0, |r| eval(r, true, time))
-            }
+            TimeFunction::Expression { expression, .. } => expression.eval(time).d,
             TimeFunction::Table { t, v } => {
                 if t.len() == 1 || time < t[0] || time > t[t.len() - 1] {
                     return 0.0;
@@ -165,26 +116,41 @@ impl TimeFunction {
         t.windows(2).map(|w| 0.5 * (w[0] + w[1]))
     }
 
+    /// Value, rate and acceleration in one evaluation.
+    pub fn jet(&self, time: f64) -> Jet {
+        match self {
+            TimeFunction::Expression { expression, .. } => expression.eval(time),
+            _ => Jet {
+                v: self.value(time),
+                d: self.rate(time),
+                dd: 0.0,
+            },
+        }
+    }
+
     pub fn accel(&self, time: f64) -> f64 {
         match self {
-            TimeFunction::Expression { accel: Some(a), .. } => eval(a, true, time),
+            TimeFunction::Expression { expression, .. } => expression.eval(time).dd,
             _ => 0.0,
         }
     }
 }
 
-fn eval(f: &FlatEx<f64>, has_t: bool, time: f64) -> f64 {
-    // The derivative of an expression may no longer mention `t` (e.g. d/dt of 2t).
-    let r = if has_t && !f.var_names().is_empty() {
-        f.eval(&[time])
+/// The start of a long expression, for messages.
+fn abbreviated(text: &str) -> String {
+    const SHOWN: usize = 60;
+    if text.chars().count() <= SHOWN {
+        text.to_string()
     } else {
-        f.eval(&[])
-    };
-    r.unwrap_or(f64::NAN)
+        format!("{}…", text.chars().take(SHOWN).collect::<String>())
+    }
 }
 
 /// Segment index and fraction for linear interpolation, clamped to the table.
 fn locate(t: &[f64], time: f64) -> (usize, f64) {
+    if time.is_nan() {
+        return (0, f64::NAN);
+    }
     if t.len() == 1 || time <= t[0] {
         return (0, 0.0);
     }
@@ -220,7 +186,7 @@ mod tests {
 
     #[test]
     fn malformed_or_foreign_expressions_are_errors() {
-        assert!(expr("sin(t").unwrap_err().contains("cannot parse"));
+        assert!(expr("sin(t").unwrap_err().contains("expected `)`"));
         assert!(expr("x + t").unwrap_err().contains("unknown name `x`"));
         assert!(expr("import os").is_err());
         assert!(expr("log(t - 1)").unwrap_err().contains("not finite"));
