@@ -27,6 +27,48 @@ create_exception!(
     "A step could not be completed; the message says where and why."
 );
 
+// The message of the last panic on this thread, with its place (kept by the hook that
+// `install_panic_hook` sets, which prints nothing: the panic becomes a Python error).
+thread_local! {
+    static LAST_PANIC: std::cell::RefCell<String> = const { std::cell::RefCell::new(String::new()) };
+}
+
+fn install_panic_hook() {
+    std::panic::set_hook(Box::new(|info| {
+        let msg = if let Some(s) = info.payload().downcast_ref::<&str>() {
+            (*s).to_string()
+        } else if let Some(s) = info.payload().downcast_ref::<String>() {
+            s.clone()
+        } else {
+            "panic".to_string()
+        };
+        let place = info
+            .location()
+            .map(|l| format!(" at {}:{}", l.file(), l.line()))
+            .unwrap_or_default();
+        LAST_PANIC.with(|p| *p.borrow_mut() = format!("{msg}{place}"));
+        if std::env::var_os("FLEXDYN_DEBUG_PANICS").is_some() {
+            eprintln!("flexdyn panic: {msg}{place}");
+        }
+    }));
+}
+
+/// Runs `f`; a Rust panic in it comes back as `Err(description)`.
+fn caught<T>(what: &str, f: impl FnOnce() -> T) -> Result<T, String> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).map_err(|_| {
+        let detail = LAST_PANIC.with(|p| std::mem::take(&mut *p.borrow_mut()));
+        format!(
+            "internal error in {what}: {detail}. This is a bug in flexdyn: please report it with the model file."
+        )
+    })
+}
+
+/// Runs `f`, turning a Rust panic into `FlexdynError`: no panic crosses into Python as
+/// `PanicException`, which `except Exception` does not catch.
+fn guarded<T>(what: &str, f: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
+    caught(what, f).unwrap_or_else(|msg| Err(FlexdynError::new_err(msg)))
+}
+
 fn model_err(e: model::ModelErrors) -> PyErr {
     ModelError::new_err(e.to_string())
 }
@@ -34,15 +76,25 @@ fn model_err(e: model::ModelErrors) -> PyErr {
 /// Parses and validates YAML model text; returns the canonical JSON of the model.
 #[pyfunction]
 fn parse_yaml(text: &str) -> PyResult<String> {
-    let m = model::from_yaml_str(text).map_err(model_err)?;
-    Ok(serde_json::to_string(&m).expect("model serialises"))
+    guarded("parsing the model", || {
+        let m = model::from_yaml_str(text).map_err(model_err)?;
+        Ok(serde_json::to_string(&m).expect("model serialises"))
+    })
 }
 
 /// Validates JSON model text (what the builder produces); returns its canonical JSON.
 #[pyfunction]
 fn parse_json(text: &str) -> PyResult<String> {
-    let m = model::from_json_str(text).map_err(model_err)?;
-    Ok(serde_json::to_string(&m).expect("model serialises"))
+    guarded("parsing the model", || {
+        let m = model::from_json_str(text).map_err(model_err)?;
+        Ok(serde_json::to_string(&m).expect("model serialises"))
+    })
+}
+
+/// Panics on purpose, to test that a panic reaches Python as `FlexdynError`.
+#[pyfunction]
+fn _panic_for_test() -> PyResult<()> {
+    guarded("a test", || panic!("deliberate panic"))
 }
 
 /// The JSON Schema of the model file.
@@ -54,14 +106,12 @@ fn schema() -> String {
 #[pyclass(name = "Simulation", module = "flexdyn._core", unsendable)]
 struct PySimulation {
     sim: Simulation,
+    /// Set by a panic during a run: the state may be half-updated, so no further steps.
+    broken: Option<String>,
 }
 
-#[pymethods]
 impl PySimulation {
-    /// Builds a simulation from JSON model text; `scheme` ("ep"/"ed") overrides the model's.
-    #[new]
-    #[pyo3(signature = (model_json, scheme=None))]
-    fn new(model_json: &str, scheme: Option<&str>) -> PyResult<Self> {
+    fn compile(model_json: &str, scheme: Option<&str>) -> PyResult<Self> {
         let m = model::from_json_str(model_json).map_err(model_err)?;
         let scheme = match scheme {
             None => m.simulation.scheme,
@@ -77,31 +127,75 @@ impl PySimulation {
             SimError::Model(e) => model_err(e),
             SimError::Step(e) => SolverError::new_err(e.to_string()),
         })?;
-        Ok(PySimulation { sim })
+        Ok(PySimulation { sim, broken: None })
     }
 
-    /// Advances to time `t` (clamped to t_end). Raises SolverError if a step cannot be
-    /// completed; the samples recorded before the failure stay available via take_samples().
-    fn advance_to(&mut self, py: Python<'_>, t: f64) -> PyResult<()> {
+    fn check_not_broken(&self) -> PyResult<()> {
+        match &self.broken {
+            Some(msg) => Err(SolverError::new_err(format!(
+                "the run cannot continue after an internal error: {msg}"
+            ))),
+            None => Ok(()),
+        }
+    }
+
+    /// Remembers an internal error (a panic during a step): the state may be half-updated,
+    /// so no further step is taken. Returns the message.
+    fn break_with(&mut self, panic: String) -> String {
+        self.broken = Some(panic.clone());
+        panic
+    }
+}
+
+#[pymethods]
+impl PySimulation {
+    /// Builds a simulation from JSON model text; `scheme` ("ep"/"ed") overrides the model's.
+    #[new]
+    #[pyo3(signature = (model_json, scheme=None))]
+    fn new(model_json: &str, scheme: Option<&str>) -> PyResult<Self> {
+        guarded("compiling the model", || Self::compile(model_json, scheme))
+    }
+
+    /// Advances to time `t` (clamped to t_end), returning early after `wall_s` seconds of
+    /// wall time if given (so results reach disk and signals are answered that often).
+    /// Raises SolverError if a step cannot be completed; the samples recorded before the
+    /// failure stay available via take_samples().
+    #[pyo3(signature = (t, wall_s=None))]
+    fn advance_to(&mut self, py: Python<'_>, t: f64, wall_s: Option<f64>) -> PyResult<()> {
+        self.check_not_broken()?;
+        let deadline = wall_s
+            .filter(|w| w.is_finite() && *w >= 0.0)
+            .map(|w| std::time::Instant::now() + std::time::Duration::from_secs_f64(w));
         let sim = &mut self.sim;
-        py.detach(|| sim.advance_to(t)).map_err(|e| {
+        let r = caught("a step", || py.detach(|| sim.advance_until(t, deadline)));
+        let t_now = self.sim.state.t;
+        let stopped = |e: String| {
             SolverError::new_err(format!(
-                "{e}\nThe run stopped at t = {:.6} s; every completed step was recorded.",
-                self.sim.state.t
+                "{e}\nThe run stopped at t = {t_now:.6} s; every completed step was recorded."
             ))
-        })
+        };
+        match r {
+            Ok(r) => r.map_err(|e| stopped(e.to_string())),
+            Err(panic) => Err(stopped(self.break_with(panic))),
+        }
     }
 
     /// Static analysis: solves the load steps to load factor 1. Raises SolverError if a load
     /// step cannot be completed; the converged load steps stay available via take_samples().
     fn solve_static(&mut self, py: Python<'_>) -> PyResult<()> {
+        self.check_not_broken()?;
         let sim = &mut self.sim;
-        py.detach(|| sim.solve_static()).map_err(|e| {
+        let r = caught("a load step", || py.detach(|| sim.solve_static()));
+        let factor = self.sim.load_factor();
+        let stopped = |e: String| {
             SolverError::new_err(format!(
-                "{e}\nThe static analysis stopped at load factor {:.4}; every converged load step was recorded.",
-                self.sim.load_factor()
+                "{e}\nThe static analysis stopped at load factor {factor:.4}; every converged load step was recorded."
             ))
-        })
+        };
+        match r {
+            Ok(r) => r.map_err(|e| stopped(e.to_string())),
+            Err(panic) => Err(stopped(self.break_with(panic))),
+        }
     }
 
     /// Static analysis only: (K[n, n], M[n, n], labels) linearized about the current state
@@ -119,7 +213,8 @@ impl PySimulation {
                 "linearize: the model's simulation.analysis must be \"static\"",
             ));
         }
-        let (n, k, m, labels) = self.sim.linearize();
+        let sim = &mut self.sim;
+        let (n, k, m, labels) = guarded("linearizing", || Ok(sim.linearize()))?;
         let k = PyArray1::from_vec(py, k).reshape([n, n])?;
         let m = PyArray1::from_vec(py, m).reshape([n, n])?;
         Ok((k, m, labels))
@@ -137,8 +232,12 @@ impl PySimulation {
 
     /// Completes samples still waiting for the next step (call before a final take_samples
     /// when a run is interrupted).
-    fn flush(&mut self) {
-        self.sim.flush();
+    fn flush(&mut self) -> PyResult<()> {
+        let sim = &mut self.sim;
+        guarded("completing the last samples", || {
+            sim.flush();
+            Ok(())
+        })
     }
 
     /// Samples recorded since the last call: (times[n], values[n, channels]).
@@ -271,6 +370,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(parse_yaml, m)?)?;
     m.add_function(wrap_pyfunction!(parse_json, m)?)?;
     m.add_function(wrap_pyfunction!(schema, m)?)?;
+    m.add_function(wrap_pyfunction!(_panic_for_test, m)?)?;
+    install_panic_hook();
     m.add_class::<PySimulation>()?;
     let py = m.py();
     m.add("FlexdynError", py.get_type::<FlexdynError>())?;

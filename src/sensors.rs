@@ -366,6 +366,15 @@ impl Channels {
                 }
             }
         }
+        let mut seen = std::collections::HashSet::new();
+        for n in &c.names {
+            if !seen.insert(n.as_str()) {
+                errors.push(ModelError::new(
+                    "sensors",
+                    format!("two sensors give a channel named `{n}`; rename one of them"),
+                ));
+            }
+        }
         if !errors.is_empty() {
             return Err(ModelErrors(errors));
         }

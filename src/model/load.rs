@@ -39,7 +39,7 @@ fn clean(msg: &str) -> String {
         return "must be [I11, I22, I33] or a 3×3 matrix of numbers".into();
     }
     if msg.contains("did not match any variant of untagged enum TimeFunctionSpec") {
-        return "must be a number, an expression of t in quotes, or a table {t: [...], value: [...]}".into();
+        return "must be a number, an expression of t in quotes, or a table {t: [...], value: [...]} (with no other keys)".into();
     }
     msg.to_string()
 }

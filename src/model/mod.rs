@@ -274,10 +274,15 @@ pub enum TimeFunctionSpec {
     Constant(f64),
     Expression(String),
     /// Piecewise-linear in `t`, held constant beyond the ends.
-    Table {
-        t: Vec<f64>,
-        value: Vec<f64>,
-    },
+    Table(TableSpec),
+}
+
+/// A table of a function of time: `{t: [...], value: [...]}` (no other keys).
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct TableSpec {
+    pub t: Vec<f64>,
+    pub value: Vec<f64>,
 }
 
 /// A spring and damper on a joint's relative coordinate: linear (`stiffness`, `rest`) or
@@ -810,7 +815,7 @@ impl Load {
 /// `<sensor>.<component>`, or with `component` just that one, named `<sensor>` (e.g.
 /// `{type: beam_section, name: beam_mid_F1, beam: beam, eta: 0.5, component: F1}`).
 #[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
-#[serde(tag = "type", rename_all = "snake_case")]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Sensor {
     /// `.x .y .z`, m.
     NodePosition {

@@ -175,8 +175,8 @@ impl Model {
         // Names are unique across all items so that every reference is unambiguous.
         let mut seen: HashMap<String, String> = HashMap::new();
         let mut name = |c: &mut Checker, path: String, n: &str| {
-            if n.is_empty() {
-                c.err(format!("{path}.name"), "must not be empty");
+            if let Err(e) = safe_name(n) {
+                c.err(format!("{path}.name"), e);
             } else if n == GROUND {
                 c.err(
                     format!("{path}.name"),
@@ -737,6 +737,13 @@ impl Model {
         if !(s.newton_tol.is_finite() && s.newton_tol > 0.0 && s.newton_tol < 1.0) {
             c.err("simulation.newton_tol", "must be between 0 and 1");
         }
+        self.check_size(&mut c);
+        if !(s.newton_increment_tol.is_finite() && s.newton_increment_tol > 0.0) {
+            c.err(
+                "simulation.newton_increment_tol",
+                format!("must be positive (got {})", s.newton_increment_tol),
+            );
+        }
         if s.load_steps == 0 {
             c.err("simulation.load_steps", "must be at least 1");
         }
@@ -749,6 +756,105 @@ impl Model {
         } else {
             Err(ModelErrors(c.errors))
         }
+    }
+}
+
+/// Most beam elements in a model: beyond it, memory and compile time run to gigabytes and
+/// minutes before the first step (about 10 kB per cubic element with ED).
+pub const MAX_BEAM_ELEMENTS: usize = 100_000;
+/// Most output samples in a run (each a row of every channel).
+pub const MAX_SAMPLES: f64 = 1e8;
+
+impl Model {
+    /// Limits checked before anything is allocated, each with what to change.
+    fn check_size(&self, c: &mut Checker) {
+        if self.nodes.is_empty() && self.beams.is_empty() {
+            c.err(
+                "nodes",
+                "the model is empty: add `nodes`, `beams` (and `bodies`, `joints`) to simulate something",
+            );
+        }
+        let elements: usize = self
+            .beams
+            .iter()
+            .map(|b| b.elements)
+            .fold(0, usize::saturating_add);
+        if elements > MAX_BEAM_ELEMENTS {
+            let (i, b) = self
+                .beams
+                .iter()
+                .enumerate()
+                .max_by_key(|(_, b)| b.elements)
+                .expect("elements > 0 means a beam");
+            c.err(
+                format!("beams[{i}].elements"),
+                format!(
+                    "the beams have {elements} elements in all (`{}` has {}); the limit is {MAX_BEAM_ELEMENTS}: use fewer, higher-order elements",
+                    b.name, b.elements
+                ),
+            );
+        }
+        let s = &self.simulation;
+        let (interval, key) = match s.output_dt {
+            Some(o) => (o, "simulation.output_dt"),
+            None if s.step_control == super::StepControl::Fixed => (s.dt, "simulation.dt"),
+            None => return,
+        };
+        let samples = s.t_end / interval;
+        if samples.is_finite() && samples > MAX_SAMPLES {
+            c.err(
+                key,
+                format!(
+                    "{samples:.3e} output samples over t_end = {} s; at most {MAX_SAMPLES:.0e}: raise `{}` or shorten the run",
+                    s.t_end,
+                    key.trim_start_matches("simulation.")
+                ),
+            );
+        }
+    }
+}
+
+/// Longest item name: names become channel names in results files.
+const MAX_NAME: usize = 64;
+
+/// Item names are identifiers (a letter or `_`, then letters, digits, `_` or `-`): they
+/// become channel names `name.component` and NetCDF variables, where `.` and `/` would be
+/// ambiguous.
+fn safe_name(n: &str) -> Result<(), String> {
+    let mut chars = n.chars();
+    let Some(first) = chars.next() else {
+        return Err("must not be empty".into());
+    };
+    let ok_first = first.is_ascii_alphabetic() || first == '_';
+    if !ok_first || !chars.all(|ch| ch.is_ascii_alphanumeric() || ch == '_' || ch == '-') {
+        return Err(format!(
+            "`{n}` is not a valid name: use a letter or `_` first, then letters, digits, `_` or `-` (e.g. `{}`)",
+            suggest_name(n)
+        ));
+    }
+    if n.len() > MAX_NAME {
+        return Err(format!(
+            "is {} characters long; at most {MAX_NAME}",
+            n.len()
+        ));
+    }
+    Ok(())
+}
+
+fn suggest_name(n: &str) -> String {
+    let s: String = n
+        .chars()
+        .map(|ch| {
+            if ch.is_ascii_alphanumeric() || ch == '-' {
+                ch
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    match s.chars().next() {
+        Some(ch) if ch.is_ascii_alphabetic() || ch == '_' => s,
+        _ => format!("_{s}"),
     }
 }
 
@@ -813,6 +919,9 @@ pub fn driven_coordinate<'a>(
 /// The first time in [0, t_end] at which a prescribed η leaves [0, 1], with its value
 /// (sampled finely enough for any smooth motion of a run).
 pub fn drive_leaves_beam(f: &TimeFunction, t_end: f64) -> Option<(f64, f64)> {
+    if !t_end.is_finite() {
+        return None; // reported as a bad `simulation.t_end`
+    }
     let samples = 20_000;
     (0..=samples).find_map(|k| {
         let t = t_end * k as f64 / samples as f64;

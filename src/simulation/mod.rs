@@ -406,6 +406,17 @@ impl Simulation {
     /// Advances up to `t_target` (not past `t_end`), recording samples: fixed steps of `dt`
     /// on the grid k·dt, or adaptive steps (which may end past `t_target`, never past t_end).
     pub fn advance_to(&mut self, t_target: f64) -> Result<(), StepFailure> {
+        self.advance_until(t_target, None)
+    }
+
+    /// As [`advance_to`](Self::advance_to), but returns early (after a whole step) once the
+    /// wall clock passes `deadline`: the caller flushes results and answers signals at least
+    /// that often, however small the steps.
+    pub fn advance_until(
+        &mut self,
+        t_target: f64,
+        deadline: Option<std::time::Instant>,
+    ) -> Result<(), StepFailure> {
         let dt = self.settings.dt;
         let t_end = self.settings.t_end;
         let target = t_target.min(t_end);
@@ -425,6 +436,9 @@ impl Simulation {
                 return Err(e);
             }
             self.step_index += 1;
+            if deadline.is_some_and(|d| std::time::Instant::now() >= d) {
+                break;
+            }
         }
         if self.done() {
             self.finalize_pending(true);

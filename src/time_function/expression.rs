@@ -154,7 +154,10 @@ impl Expression {
         };
         p.expr()?;
         if let Some(tok) = p.tokens.get(p.pos) {
-            return Err(format!("unexpected `{}` at column {}", tok.text, tok.column));
+            return Err(format!(
+                "unexpected `{}` at column {}",
+                tok.text, tok.column
+            ));
         }
         let stack_depth = stack_depth(&p.program);
         Ok(Expression {
@@ -355,7 +358,9 @@ fn lex(text: &str) -> Result<Vec<Token>, String> {
         let column = i + 1;
         if c.is_whitespace() {
             i += 1;
-        } else if c.is_ascii_digit() || (c == '.' && chars.get(i + 1).is_some_and(|d| d.is_ascii_digit())) {
+        } else if c.is_ascii_digit()
+            || (c == '.' && chars.get(i + 1).is_some_and(|d| d.is_ascii_digit()))
+        {
             let start = i;
             while i < chars.len() && (chars[i].is_ascii_digit() || chars[i] == '.') {
                 i += 1;
@@ -374,22 +379,36 @@ fn lex(text: &str) -> Result<Vec<Token>, String> {
                 }
             }
             let s: String = chars[start..i].iter().collect();
-            let v: f64 = s.parse().map_err(|_| format!("malformed number `{s}` at column {column}"))?;
-            tokens.push(Token { kind: Kind::Number(v), text: s, column });
+            let v: f64 = s
+                .parse()
+                .map_err(|_| format!("malformed number `{s}` at column {column}"))?;
+            tokens.push(Token {
+                kind: Kind::Number(v),
+                text: s,
+                column,
+            });
         } else if c.is_ascii_alphabetic() || c == '_' {
             let start = i;
             while i < chars.len() && (chars[i].is_ascii_alphanumeric() || chars[i] == '_') {
                 i += 1;
             }
             let s: String = chars[start..i].iter().collect();
-            tokens.push(Token { kind: Kind::Name, text: s, column });
+            tokens.push(Token {
+                kind: Kind::Name,
+                text: s,
+                column,
+            });
         } else {
             let rest: String = chars[i..chars.len().min(i + 2)].iter().collect();
             let Some(sym) = SYMBOLS.iter().find(|s| rest.starts_with(**s)) else {
                 return Err(format!("unexpected character `{c}` at column {column}"));
             };
             i += sym.chars().count();
-            tokens.push(Token { kind: Kind::Symbol, text: sym.to_string(), column });
+            tokens.push(Token {
+                kind: Kind::Symbol,
+                text: sym.to_string(),
+                column,
+            });
         }
     }
     Ok(tokens)
@@ -423,7 +442,10 @@ impl Parser<'_> {
             return Ok(());
         }
         Err(match self.tokens.get(self.pos) {
-            Some(t) => format!("expected `{sym}` at column {} but found `{}`", t.column, t.text),
+            Some(t) => format!(
+                "expected `{sym}` at column {} but found `{}`",
+                t.column, t.text
+            ),
             None => format!("expected `{sym}` but the expression ended"),
         })
     }
@@ -459,7 +481,14 @@ impl Parser<'_> {
         const LEVELS: &[&[(&str, Op)]] = &[
             &[("||", Op::Or)],
             &[("&&", Op::And)],
-            &[("<=", Op::Le), (">=", Op::Ge), ("<", Op::Lt), (">", Op::Gt), ("==", Op::Eq), ("!=", Op::Ne)],
+            &[
+                ("<=", Op::Le),
+                (">=", Op::Ge),
+                ("<", Op::Lt),
+                (">", Op::Gt),
+                ("==", Op::Eq),
+                ("!=", Op::Ne),
+            ],
             &[("+", Op::Add), ("-", Op::Sub)],
             &[("*", Op::Mul), ("/", Op::Div)],
         ];
@@ -496,7 +525,9 @@ impl Parser<'_> {
 
     fn atom(&mut self) -> Result<(), String> {
         let Some(tok) = self.tokens.get(self.pos) else {
-            return Err("the expression ended where a number, `t`, a call or `(` was expected".into());
+            return Err(
+                "the expression ended where a number, `t`, a call or `(` was expected".into(),
+            );
         };
         self.pos += 1;
         match &tok.kind {
@@ -507,7 +538,10 @@ impl Parser<'_> {
                 self.expect(")")?;
             }
             Kind::Symbol => {
-                return Err(format!("unexpected `{}` at column {}", tok.text, tok.column));
+                return Err(format!(
+                    "unexpected `{}` at column {}",
+                    tok.text, tok.column
+                ));
             }
         }
         Ok(())
@@ -531,17 +565,22 @@ impl Parser<'_> {
             ));
         };
         if self.peek() != Some("(") {
-            return Err(format!("`{name}` at column {} is a function: write `{name}(…)`", tok.column));
+            return Err(format!(
+                "`{name}` at column {} is a function: write `{name}(…)`",
+                tok.column
+            ));
         }
         self.pos += 1;
         // Each argument is an `expr`, which counts the nesting.
         for k in 0..arity {
             if k > 0 {
-                self.expect(",").map_err(|e| format!("`{name}` takes {arity} arguments: {e}"))?;
+                self.expect(",")
+                    .map_err(|e| format!("`{name}` takes {arity} arguments: {e}"))?;
             }
             self.expr()?;
         }
-        self.expect(")").map_err(|e| format!("`{name}` takes {arity} argument(s): {e}"))?;
+        self.expect(")")
+            .map_err(|e| format!("`{name}` takes {arity} argument(s): {e}"))?;
         self.program.push(Op::Call(f));
         Ok(())
     }
@@ -552,7 +591,9 @@ mod tests {
     use super::*;
 
     fn eval(text: &str, t: f64) -> Jet {
-        Expression::parse(text).unwrap_or_else(|e| panic!("{text}: {e}")).eval(t)
+        Expression::parse(text)
+            .unwrap_or_else(|e| panic!("{text}: {e}"))
+            .eval(t)
     }
 
     fn close(a: f64, b: f64) -> bool {
@@ -614,8 +655,16 @@ mod tests {
                 let (a, b, c) = (e.eval(t - h).v, j.v, e.eval(t + h).v);
                 let (d, dd) = ((c - a) / (2.0 * h), (c - 2.0 * b + a) / (h * h));
                 // Truncation h²·f''' ~ 1e-10; the second difference's round-off ε·f/h² ~ 2e-6.
-                assert!((j.d - d).abs() < 1e-7 * (1.0 + d.abs()), "{text}: rate at {t}: {} vs {d}", j.d);
-                assert!((j.dd - dd).abs() < 1e-4 * (1.0 + dd.abs()), "{text}: accel at {t}: {} vs {dd}", j.dd);
+                assert!(
+                    (j.d - d).abs() < 1e-7 * (1.0 + d.abs()),
+                    "{text}: rate at {t}: {} vs {d}",
+                    j.d
+                );
+                assert!(
+                    (j.dd - dd).abs() < 1e-4 * (1.0 + dd.abs()),
+                    "{text}: accel at {t}: {} vs {dd}",
+                    j.dd
+                );
             }
         }
     }
@@ -627,7 +676,9 @@ mod tests {
         assert_eq!(eval(&sum, 2.0).d, 5000.0);
         let product = vec!["(1 + 0*t)"; 2000].join("*");
         assert!(close(eval(&product, 1.0).v, 1.0));
-        let fourier: Vec<String> = (1..=90).map(|k| format!("{:.3}*sin({k}*2*pi*t + 0.1)", 1.0 / k as f64)).collect();
+        let fourier: Vec<String> = (1..=90)
+            .map(|k| format!("{:.3}*sin({k}*2*pi*t + 0.1)", 1.0 / k as f64))
+            .collect();
         let f = Expression::parse(&fourier.join(" + ")).unwrap();
         assert!(f.eval(0.3).v.is_finite() && f.eval(0.3).dd.is_finite());
         let nested = format!("{}t{}", "sin(".repeat(46), ")".repeat(46));
@@ -641,7 +692,8 @@ mod tests {
     #[test]
     fn limits_and_mistakes_are_reported() {
         let err = |text: &str| Expression::parse(text).unwrap_err();
-        assert!(err(&format!("{}t{}", "sin(".repeat(100), ")".repeat(100))).contains("nested more than 64"));
+        assert!(err(&format!("{}t{}", "sin(".repeat(100), ")".repeat(100)))
+            .contains("nested more than 64"));
         assert!(err(&"-".repeat(200)).contains("nested more than"));
         assert!(err(&"t+".repeat(20_000)).contains("limit is 20000"));
         assert!(err("x + t").contains("unknown name `x` at column 1"));

@@ -19,7 +19,11 @@ impl Jet {
         Jet { v, d: 0.0, dd: 0.0 }
     }
     pub const fn time(t: f64) -> Self {
-        Jet { v: t, d: 1.0, dd: 0.0 }
+        Jet {
+            v: t,
+            d: 1.0,
+            dd: 0.0,
+        }
     }
     /// f(self) from f(v), f'(v), f''(v) (chain rule to second order).
     pub fn chain(self, f: f64, df: f64, ddf: f64) -> Self {
@@ -110,8 +114,8 @@ impl Jet {
         let d = (x.v * self.d - self.v * x.d) / r2;
         // d/dt of (x y' − y x')/r² = (x y'' − y x'')/r² − (x y' − y x')·2(x x' + y y')/r⁴
         let num = x.v * self.d - self.v * x.d;
-        let dd =
-            (x.v * self.dd - self.v * x.dd) / r2 - num * 2.0 * (x.v * x.d + self.v * self.d) / (r2 * r2);
+        let dd = (x.v * self.dd - self.v * x.dd) / r2
+            - num * 2.0 * (x.v * x.d + self.v * self.d) / (r2 * r2);
         Jet { v, d, dd }
     }
     /// A function that is locally constant (floor, ceil, round, sign, step): zero rates.
@@ -206,7 +210,10 @@ mod tests {
             ("pow", Box::new(|x: Jet| x.pow(x.sin()))),
             ("atan2", Box::new(|x: Jet| x.sin().atan2(x.cos() + x))),
             ("mul", Box::new(|x: Jet| x * x.exp())),
-            ("div", Box::new(|x: Jet| x.sin() / (x * x + Jet::constant(1.0)))),
+            (
+                "div",
+                Box::new(|x: Jet| x.sin() / (x * x + Jet::constant(1.0))),
+            ),
         ];
         for (name, f) in cases {
             for t in [0.4, 1.3, 2.2] {
@@ -216,7 +223,11 @@ mod tests {
                 let (d, dd) = fd(|s| f(g(s)).v, t);
                 let tol = 1e-6 * (1.0 + j.d.abs() + j.dd.abs());
                 assert!((j.d - d).abs() < tol, "{name}'({t}): {} vs {d}", j.d);
-                assert!((j.dd - dd).abs() < 1e3 * tol, "{name}''({t}): {} vs {dd}", j.dd);
+                assert!(
+                    (j.dd - dd).abs() < 1e3 * tol,
+                    "{name}''({t}): {} vs {dd}",
+                    j.dd
+                );
             }
         }
     }

@@ -54,7 +54,7 @@ impl TimeFunction {
                 }
                 Ok(f)
             }
-            TimeFunctionSpec::Table { t, value } => {
+            TimeFunctionSpec::Table(crate::model::TableSpec { t, value }) => {
                 if t.len() != value.len() || t.is_empty() {
                     return Err(format!(
                         "table needs equally long, non-empty `t` and `value` (got {} and {})",
@@ -203,20 +203,22 @@ mod tests {
 
     #[test]
     fn table_interpolates_and_holds_ends() {
-        let f = TimeFunction::new(&TimeFunctionSpec::Table {
+        let f = TimeFunction::new(&TimeFunctionSpec::Table(crate::model::TableSpec {
             t: vec![0.0, 1.0, 3.0],
             value: vec![0.0, 2.0, 0.0],
-        })
+        }))
         .unwrap();
         assert_eq!(f.value(0.5), 1.0);
         assert_eq!(f.value(2.0), 1.0);
         assert_eq!(f.value(10.0), 0.0);
         assert_eq!(f.rate(0.5), 2.0);
         assert_eq!(f.rate(2.0), -1.0);
-        assert!(TimeFunction::new(&TimeFunctionSpec::Table {
-            t: vec![0.0, 0.0],
-            value: vec![1.0, 2.0]
-        })
-        .is_err());
+        assert!(
+            TimeFunction::new(&TimeFunctionSpec::Table(crate::model::TableSpec {
+                t: vec![0.0, 0.0],
+                value: vec![1.0, 2.0]
+            }))
+            .is_err()
+        );
     }
 }
