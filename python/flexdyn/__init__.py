@@ -11,12 +11,15 @@ from ._core import FlexdynError, ModelError, SolverError
 from ._core import schema as _schema
 from .builder import Model, drive, load
 from .modes import modes
-from .results import open_results, simulate, solve_static
+from .results import Interrupted, open_results, simulate, solve_static
+from .storage import OutputError
 
 __all__ = [
     "FlexdynError",
+    "Interrupted",
     "Model",
     "ModelError",
+    "OutputError",
     "SolverError",
     "drive",
     "load",

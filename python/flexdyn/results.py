@@ -1,8 +1,9 @@
 """Running a model and collecting its sensors as named, unit-annotated time histories.
 
 Samples come from Rust in chunks and are appended to a NetCDF file with an unlimited time
-dimension, so memory stays flat and an interrupted or failed run leaves a valid file holding
-every completed step.
+dimension (see `storage`), at least every FLUSH_WALL_S of wall time, so memory stays flat and a
+run stopped by anything — a failed step, Ctrl-C, SIGTERM, SIGKILL, a full disk, an exception in
+a callback — leaves a file that opens and holds every sample up to the last flush.
 """
 
 from __future__ import annotations
@@ -17,45 +18,15 @@ import xarray as xr
 
 from . import _core
 from .builder import Model, load
+from .storage import AppendOnlyNetcdf, OutputError
 
 #: Steps per chunk handed from Rust to Python (long enough that the seam costs nothing).
 CHUNK_STEPS = 500
-
-
-class _NetcdfWriter:
-    def __init__(self, path: Path, names, units, attrs, dim="time", dim_units="s"):
-        import netCDF4
-
-        self.ds = netCDF4.Dataset(path, "w", format="NETCDF4")
-        self.dim = dim
-        self.ds.createDimension(dim, None)
-        t = self.ds.createVariable(dim, "f8", (dim,))
-        t.units = dim_units
-        self.vars = []
-        for n, u in zip(names, units):
-            v = self.ds.createVariable(n, "f8", (dim,), zlib=False)
-            v.units = u
-            self.vars.append(v)
-        for k, val in attrs.items():
-            self.ds.setncattr(k, val)
-        self.n = 0
-
-    def append(self, times, values):
-        m = len(times)
-        if m == 0:
-            return
-        self.ds[self.dim][self.n : self.n + m] = times
-        for j, v in enumerate(self.vars):
-            v[self.n : self.n + m] = values[:, j]
-        self.n += m
-        self.ds.sync()
-
-    def set_attrs(self, attrs):
-        for k, val in attrs.items():
-            self.ds.setncattr(k, val)
-
-    def close(self):
-        self.ds.close()
+#: Wall time between flushes to disk, s: at most this much work is lost to a kill or a power
+#: loss, and Ctrl-C or SIGTERM is answered within about this long.
+FLUSH_WALL_S = 1.0
+#: Results kept in memory (without `out`) beyond this many bytes are refused before the run.
+MAX_IN_MEMORY_BYTES = 4 * 2**30
 
 
 def model_data(model) -> dict:
@@ -135,78 +106,210 @@ def simulate(
         "step_control": step_control,
         "tolerance": tolerance,
     }
-    data["simulation"].update({k: v for k, v in overrides.items() if v is not None})
+    data["simulation"].update({k: _number(k, v) for k, v in overrides.items() if v is not None})
+    if out is not None:
+        _check_output_path(Path(out), model)
     sim = _core.Simulation(json.dumps(data))
     names, units = sim.channel_names, sim.channel_units
+    if out is None:
+        _check_in_memory_size(data["simulation"], len(names))
     attrs = {
         "model": data.get("name") or "",
         "analysis": "static" if sim.is_static else "dynamic",
         "scheme": sim.scheme,
         "dt": sim.dt,
         "flexdyn_model": json.dumps(data),
+        "completed": 0,  # until the run reaches its end
     }
     dim, dim_units = ("load_factor", "1") if sim.is_static else ("time", "s")
-    writer = _NetcdfWriter(Path(out), names, units, attrs, dim, dim_units) if out is not None else None
-    chunks_t, chunks_v = [], []
-    start = time.perf_counter()
-    error = None
-
-    def drain(callback=True):
-        """Hands the samples Rust has recorded to the file (first) and to the caller."""
-        t, v = sim.take_samples()
-        if writer:
-            writer.append(t, v)
-        else:
-            chunks_t.append(t)
-            chunks_v.append(v)
-        if callback and on_chunk is not None:
-            on_chunk(t, v)
-
-    try:
-        while not sim.done:
-            try:
-                if sim.is_static:
-                    sim.solve_static()
-                else:
-                    # Chunks of CHUNK_STEPS·dt (memory), or 1 % of the run when a progress line
-                    # is shown, so it moves.
-                    chunk = CHUNK_STEPS * sim.dt
-                    sim.advance_to(sim.t + (min(chunk, 0.01 * sim.t_end) if progress else chunk))
-            except _core.SolverError as e:
-                error = e
-            drain()
-            if progress:
-                _progress(sim, start)
-            if error is not None:
-                break
-    except KeyboardInterrupt:
-        error = KeyboardInterrupt(f"interrupted at t = {sim.t:.6g} s; completed steps were kept")
-        sim.flush()
-        drain(callback=False)
-    finally:
-        wall = time.perf_counter() - start
-        stats = dict(sim.stats)
-        stats["wall_time_s"] = wall
-        run_attrs = {f"stats_{k}": v for k, v in stats.items()}
-        run_attrs["warnings"] = "\n".join(sim.warnings)
-        run_attrs["completed"] = int(error is None)
-        if writer:
-            writer.set_attrs(run_attrs)
-            writer.close()
-        if progress:
-            sys.stderr.write("\n")
-    if writer:
-        ds = xr.open_dataset(out)
-    else:
-        times = np.concatenate(chunks_t) if chunks_t else np.zeros(0)
-        values = np.concatenate(chunks_v) if chunks_v else np.zeros((0, len(names)))
-        ds = _dataset(times, values, names, units, {**attrs, **run_attrs}, dim, dim_units)
-    ds.attrs["stats"] = stats
+    writer = AppendOnlyNetcdf(out, names, units, attrs, dim, dim_units) if out is not None else None
+    run = _Run(sim, writer, on_chunk, progress)
+    with _StopRequests() as stop:
+        try:
+            run.loop(stop)
+        finally:
+            run.close()
+    ds = xr.open_dataset(out) if writer else run.dataset(names, units, attrs, dim, dim_units)
+    ds.attrs["stats"] = run.stats
     ds.attrs["warnings_list"] = list(sim.warnings)
-    if error is not None:
-        error.results = ds
-        raise error
+    if run.error is not None:
+        run.error.results = ds
+        raise run.error
     return ds
+
+
+def _number(key, v):
+    """A setting given as a number (numpy scalars and 0-d arrays accepted)."""
+    if isinstance(v, str):
+        return v
+    try:
+        x = np.asarray(v).item()
+    except (TypeError, ValueError):
+        x = None
+    if not isinstance(x, (int, float)) or not np.isfinite(x):
+        raise _core.ModelError(f"simulation.{key}: must be a finite number (got {v!r})")
+    return x
+
+
+def _check_output_path(out: Path, model):
+    if isinstance(model, (str, Path)) and out.resolve() == Path(model).resolve():
+        raise _core.ModelError(f"out: `{out}` is the model file itself; choose another results file")
+    if out.is_dir():
+        raise _core.ModelError(f"out: `{out}` is a folder; give a file name such as {out / 'results.nc'}")
+
+
+def _check_in_memory_size(settings: dict, channels: int):
+    """Refuses in-memory results that would not fit, before the run (files stream instead)."""
+    interval = settings.get("output_dt") or (
+        settings.get("dt") if settings.get("step_control") == "fixed" else None
+    )
+    if not interval:
+        return
+    samples = float(settings.get("t_end", 1.0)) / float(interval)
+    need = samples * (channels + 1) * 8
+    if need > MAX_IN_MEMORY_BYTES:
+        raise _core.ModelError(
+            f"simulation.output_dt: {samples:.3g} samples of {channels} channels need "
+            f"{need / 2**30:.1f} GiB in memory; give `out=` to stream them to a file, or raise output_dt"
+        )
+
+
+class _StopRequests:
+    """While a run is on: SIGINT and SIGTERM (and SIGHUP) ask it to stop after the current
+    chunk (≤ FLUSH_WALL_S), so the file ends cleanly; a second SIGINT interrupts at once.
+    Only in the main thread and only where the handlers are Python's defaults."""
+
+    def __init__(self):
+        self.signal = None
+        self.saved = {}
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        if threading.current_thread() is not threading.main_thread():
+            return self
+        for name in ("SIGINT", "SIGTERM", "SIGHUP"):
+            sig = getattr(signal, name, None)
+            if sig is None:
+                continue
+            current = signal.getsignal(sig)
+            if current in (signal.SIG_DFL, signal.default_int_handler):
+                self.saved[sig] = current
+                signal.signal(sig, self._request)
+        return self
+
+    def _request(self, signum, frame):
+        import signal
+
+        if self.signal == signal.SIGINT and signum == signal.SIGINT:
+            raise KeyboardInterrupt  # asked twice: stop now
+        self.signal = signum
+
+    def __exit__(self, *exc):
+        import signal
+
+        for sig, handler in self.saved.items():
+            signal.signal(sig, handler)
+        return False
+
+
+class Interrupted(KeyboardInterrupt):
+    """The run was stopped by a signal (Ctrl-C, SIGTERM, SIGHUP); `signal` is its number."""
+
+    def __init__(self, message, signal_number):
+        super().__init__(message)
+        self.signal = signal_number
+
+
+class _Run:
+    """One run's loop: advance, hand samples to the file and the caller, stop cleanly."""
+
+    def __init__(self, sim, writer, on_chunk, progress):
+        self.sim, self.writer, self.on_chunk, self.progress = sim, writer, on_chunk, progress
+        self.chunks_t, self.chunks_v = [], []
+        self.start = time.perf_counter()
+        self.error = None
+        self.completed = False
+        self.stats = {}
+
+    def drain(self, callback=True):
+        """Hands the samples Rust has recorded to the file (first) and to the caller."""
+        t, v = self.sim.take_samples()
+        if self.writer:
+            self.writer.append(t, v)
+        else:
+            self.chunks_t.append(t)
+            self.chunks_v.append(v)
+        if callback and self.on_chunk is not None:
+            self.on_chunk(t, v)
+
+    def loop(self, stop):
+        sim = self.sim
+        try:
+            while not sim.done and stop.signal is None:
+                try:
+                    if sim.is_static:
+                        sim.solve_static()
+                    else:
+                        chunk = CHUNK_STEPS * sim.dt
+                        if self.progress:  # 1 % of the run, so the line moves
+                            chunk = min(chunk, 0.01 * sim.t_end)
+                        sim.advance_to(sim.t + chunk, FLUSH_WALL_S)
+                except _core.SolverError as e:
+                    self.error = e
+                self.drain()
+                if self.progress:
+                    _progress(sim, self.start)
+                if self.error is not None:
+                    return
+            if stop.signal is not None:
+                self.interrupted(stop.signal)
+            else:
+                self.completed = True
+        except KeyboardInterrupt:
+            import signal
+
+            self.interrupted(signal.SIGINT)
+        except OutputError as e:
+            self.error = _core.SolverError(f"{e}; the run stopped at t = {sim.t:.6g} s")
+
+    def interrupted(self, signum):
+        import signal
+
+        name = signal.Signals(signum).name
+        self.error = Interrupted(
+            f"interrupted ({name}) at t = {self.sim.t:.6g} s; completed steps were kept", signum
+        )
+        try:
+            self.sim.flush()
+            self.drain(callback=False)
+        except OutputError:
+            pass  # the file keeps what it had; the interruption is what gets reported
+
+    def close(self):
+        """Final statistics and attributes; `completed` only for a run that reached its end."""
+        sim = self.sim
+        self.stats = dict(sim.stats)
+        self.stats["wall_time_s"] = time.perf_counter() - self.start
+        self.run_attrs = {f"stats_{k}": v for k, v in self.stats.items()}
+        self.run_attrs["warnings"] = "\n".join(sim.warnings)
+        self.run_attrs["completed"] = int(self.completed and sim.done)
+        if self.writer:
+            try:
+                self.writer.finish(self.run_attrs)
+            except OutputError as e:
+                if self.error is None:
+                    self.error = _core.SolverError(str(e))
+            finally:
+                self.writer.close()
+        if self.progress:
+            sys.stderr.write("\n")
+
+    def dataset(self, names, units, attrs, dim, dim_units):
+        times = np.concatenate(self.chunks_t) if self.chunks_t else np.zeros(0)
+        values = np.concatenate(self.chunks_v) if self.chunks_v else np.zeros((0, len(names)))
+        return _dataset(times, values, names, units, {**attrs, **self.run_attrs}, dim, dim_units)
 
 
 def solve_static(

@@ -1,0 +1,162 @@
+"""Results files that a crash cannot corrupt: append-only NetCDF classic (64-bit offset).
+
+Why not the netCDF4 (HDF5) library for writing: HDF5 rewrites metadata all over the file as it
+grows, so a kill, a power loss or a full disk mid-write can leave a file that no longer opens.
+The NetCDF classic format (CDF-2, https://docs.unidata.ucar.edu/netcdf-c/current/file_format_specifications.html)
+has one fixed header and then records appended one after another; the only field that changes
+as the file grows is `numrecs`, four bytes in the header. Each flush therefore
+
+1. appends the new records after the last complete one and syncs them to disk, then
+2. overwrites `numrecs` and syncs again.
+
+Whatever stops the run between or during those writes, the header's `numrecs` counts only
+records that are completely on disk, so the file opens (with xarray, netCDF4, ncdump, ParaView)
+with every sample up to the last flush. The header is written once with room to spare, so the
+final attributes (completed, statistics, warnings) are written in place at the end without
+moving data.
+"""
+
+from __future__ import annotations
+
+import os
+import struct
+from pathlib import Path
+
+import numpy as np
+
+from . import _core
+
+_MAGIC = b"CDF\x02"
+_DIMENSION, _VARIABLE, _ATTRIBUTE = 0x0A, 0x0B, 0x0C
+_CHAR, _INT, _DOUBLE = 2, 4, 6
+#: Header room kept for the attributes written when the run ends (statistics, warnings).
+_HEADER_SPARE = 64 * 1024
+#: Longest warnings text stored in the file's attributes (all warnings are also reported).
+_MAX_WARNINGS_TEXT = 32 * 1024
+
+
+class OutputError(_core.FlexdynError, OSError):
+    """The results file cannot be created or written (missing folder, read-only, disk full).
+    An OSError too, with its `errno`."""
+
+    def __str__(self):
+        return str(self.args[1]) if len(self.args) > 1 else super().__str__()
+
+
+def _pad4(b: bytes) -> bytes:
+    return b + b"\0" * (-len(b) % 4)
+
+
+def _name(s: str) -> bytes:
+    raw = s.encode("utf-8")
+    return struct.pack(">i", len(raw)) + _pad4(raw)
+
+
+def _attribute(name: str, value) -> bytes:
+    if isinstance(value, (bool, np.bool_)):
+        value = int(value)
+    if isinstance(value, (int, np.integer)) and -(2**31) <= int(value) < 2**31:
+        return _name(name) + struct.pack(">ii", _INT, 1) + struct.pack(">i", int(value))
+    if isinstance(value, (int, float, np.integer, np.floating)):
+        return _name(name) + struct.pack(">ii", _DOUBLE, 1) + struct.pack(">d", float(value))
+    raw = str(value).encode("utf-8")
+    return _name(name) + struct.pack(">ii", _CHAR, len(raw)) + _pad4(raw)
+
+
+def _attributes(attrs: dict) -> bytes:
+    if not attrs:
+        return b"\0" * 8
+    return struct.pack(">ii", _ATTRIBUTE, len(attrs)) + b"".join(_attribute(k, v) for k, v in attrs.items())
+
+
+class AppendOnlyNetcdf:
+    """A NetCDF classic file with one unlimited dimension and one f8 variable per channel.
+
+    `path` is created (or replaced); `names`/`units` are the channels; `attrs` global
+    attributes. `append(times, values[n, channels])` adds records durably; `finish(attrs)`
+    adds final global attributes. Raises OutputError naming the file if it cannot be
+    written.
+    """
+
+    def __init__(self, path, names, units, attrs, dim="time", dim_units="s"):
+        self.path = Path(path)
+        self.dim, self.dim_units = dim, dim_units
+        self.names, self.units = [dim, *names], [dim_units, *units]
+        self.attrs = dict(attrs)
+        self.records = 0
+        # Header size with the spare room: the data start after it, for good.
+        self.data_start = len(self._header(0, self.attrs)) + _HEADER_SPARE
+        self.record_bytes = 8 * len(self.names)
+        try:
+            self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o644)
+        except OSError as e:
+            raise OutputError(e.errno, f"cannot create the results file {self.path}: {e.strerror}") from e
+        try:
+            header = self._header(0, self.attrs)
+            self._write_all(header + b"\0" * (self.data_start - len(header)), 0)
+            os.fsync(self.fd)
+        except OSError as e:
+            os.close(self.fd)
+            raise OutputError(e.errno, f"cannot write the results file {self.path}: {e.strerror}") from e
+
+    def _header(self, records: int, attrs: dict) -> bytes:
+        out = [_MAGIC, struct.pack(">i", records)]
+        out.append(struct.pack(">ii", _DIMENSION, 1) + _name(self.dim) + struct.pack(">i", 0))
+        out.append(_attributes(attrs))
+        out.append(struct.pack(">ii", _VARIABLE, len(self.names)))
+        start = getattr(self, "data_start", 0)
+        for k, (n, u) in enumerate(zip(self.names, self.units)):
+            out.append(_name(n) + struct.pack(">ii", 1, 0) + _attributes({"units": u}))
+            # nc_type, vsize (one record of this variable), begin (64-bit offset)
+            out.append(struct.pack(">iiq", _DOUBLE, 8, start + 8 * k))
+        return b"".join(out)
+
+    def _write_all(self, data: bytes, offset: int):
+        view = memoryview(data)
+        while view:
+            n = os.pwrite(self.fd, view, offset)
+            view, offset = view[n:], offset + n
+
+    def append(self, times, values):
+        """Adds len(times) records; on return they are on disk and counted in the header."""
+        m = len(times)
+        if m == 0:
+            return
+        rows = np.empty((m, len(self.names)), dtype=">f8")
+        rows[:, 0] = times
+        rows[:, 1:] = values
+        try:
+            self._write_all(rows.tobytes(), self.data_start + self.records * self.record_bytes)
+            os.fsync(self.fd)
+            os.pwrite(self.fd, struct.pack(">i", self.records + m), 4)
+            os.fsync(self.fd)
+        except OSError as e:
+            raise OutputError(
+                e.errno,
+                f"cannot write to the results file {self.path}: {e.strerror}; "
+                f"it holds the {self.records} samples written before",
+            ) from e
+        self.records += m
+
+    def finish(self, attrs: dict):
+        """Adds `attrs` to the global attributes, in the header's spare room (nothing moves)."""
+        merged = {**self.attrs, **attrs}
+        if len(str(merged.get("warnings", ""))) > _MAX_WARNINGS_TEXT:
+            text = merged["warnings"]
+            merged["warnings"] = (
+                text[:_MAX_WARNINGS_TEXT] + f"\n… ({len(text) - _MAX_WARNINGS_TEXT} more characters)"
+            )
+        header = self._header(self.records, merged)
+        if len(header) > self.data_start:
+            raise OutputError(0, f"final attributes of {self.path} do not fit its header")
+        try:
+            self._write_all(header, 0)
+            os.fsync(self.fd)
+        except OSError as e:
+            raise OutputError(e.errno, f"cannot finish the results file {self.path}: {e.strerror}") from e
+        self.attrs = merged
+
+    def close(self):
+        if self.fd is not None:
+            os.close(self.fd)
+            self.fd = None
