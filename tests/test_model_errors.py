@@ -44,7 +44,11 @@ CASES = [
     ),
     ("name: ball", "name: pin", ["joints[1].name", "duplicate name `pin`"]),
     ("node: b, mass", "node: nowhere, mass", ["bodies[1].node", "node `nowhere`"]),
-    ("axis: [0, 0, 1]}", "axis: [0, 0, 1], drive: 'sin(t'}", ["joints[0].drive", "expected `)` but the expression ended"]),
+    (
+        "axis: [0, 0, 1]}",
+        "axis: [0, 0, 1], drive: 'sin(t'}",
+        ["joints[0].drive", "expected `)` but the expression ended"],
+    ),
     ("axis: [0, 0, 1]}", "axis: [0, 0, 1], drive: 'os.system(t)'}", ["joints[0].drive"]),
     ("axis: [0, 0, 1]}", "axis: [0, 0, 2]}", ["joints[0].axis", "must be a unit vector"]),
     ("axis: [0, 0, 1]}", "axsi: [0, 0, 1]}", ["joints[0]", "axsi"]),

@@ -239,7 +239,7 @@ def test_cli_info_check_plot_and_compare(tmp_path):
     p = cli("compare", *runs, "--sensors", "knee_angle.phi", "e.total", "-o", tmp_path / "c.pdf")
     assert p.returncode == 0 and (tmp_path / "c.pdf").read_bytes().startswith(b"%PDF"), p.stderr
     missing = cli("info", tmp_path / "missing.yaml")
-    assert missing.returncode == 2 and "cannot read the model file" in missing.stderr
+    assert missing.returncode == 2 and "no such model file" in missing.stderr
     bad = cli("plot", runs[0], "nope", "-o", tmp_path / "b.png")
     assert bad.returncode == 2 and "no channel or sensor `nope`" in bad.stderr
 

@@ -22,8 +22,37 @@ from . import _core
 GROUND = "ground"
 
 
-def _vec(v) -> list[float]:
-    return [float(x) for x in v]
+def _plain(v, path: str = ""):
+    """`v` as plain JSON data: numpy scalars and arrays become numbers and lists, Drives
+    their functions; a non-finite number or an object that is not data is a ModelError
+    naming `path`. Types are not coerced (2.7 elements stays 2.7, so Rust rejects it by name)."""
+    import math
+
+    import numpy as np
+
+    if isinstance(v, Drive):
+        return _plain(v.function, path)
+    if isinstance(v, np.ndarray):
+        v = v.tolist()
+    elif isinstance(v, np.generic):
+        v = v.item()
+    if isinstance(v, dict):
+        return {str(k): _plain(x, f"{path}.{k}" if path else str(k)) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_plain(x, f"{path}[{i}]") for i, x in enumerate(v)]
+    if isinstance(v, float) and not math.isfinite(v):
+        raise _core.ModelError(f"{path}: must be a finite number (got {v})")
+    if v is None or isinstance(v, (bool, int, float, str)):
+        return v
+    raise _core.ModelError(
+        f"{path}: {type(v).__name__} {v!r} is not model data (give numbers, strings, lists)"
+    )
+
+
+def _vec(v):
+    """A copy of what was given (a later change to the caller's list or array must not change
+    the model); `to_dict` makes it plain data and names the item if it is not."""
+    return list(v) if isinstance(v, (tuple, range)) else copy.deepcopy(v)
 
 
 def _drop_none(d: dict) -> dict:
@@ -36,7 +65,7 @@ class Drive:
     def __init__(self, function):
         if isinstance(function, Drive):
             function = function.function
-        self.function = float(function) if isinstance(function, (int, float)) else function
+        self.function = function
 
     def __repr__(self) -> str:
         return f"drive({self.function!r})"
@@ -101,7 +130,7 @@ class Model:
                 {
                     "name": name,
                     "node": node,
-                    "mass": float(mass),
+                    "mass": mass,
                     "inertia": inertia,
                     "cm_offset": _vec(cm_offset) if cm_offset is not None else None,
                 }
@@ -142,12 +171,7 @@ class Model:
         - `e2`: the section's axis 2 at the start (projected normal to the beam).
         """
 
-        def num(v):
-            if isinstance(v, dict):
-                return {k: num(x) for k, x in v.items()}
-            if hasattr(v, "__len__") and not isinstance(v, str):
-                return [num(x) for x in v]
-            return float(v)
+        num = _vec
 
         self.data["beams"].append(
             _drop_none(
@@ -157,14 +181,14 @@ class Model:
                     "end": _vec(end) if end is not None else None,
                     "start_node": start_node,
                     "end_node": end_node,
-                    "elements": int(elements),
-                    "order": int(order),
+                    "elements": elements,
+                    "order": order,
                     "section": num(section) if section is not None else None,
-                    "sections": [{"eta": float(st["eta"]), "section": num(st["section"])} for st in sections]
+                    "sections": [{"eta": st["eta"], "section": num(st["section"])} for st in sections]
                     if sections is not None
                     else None,
                     "e2": _vec(e2) if e2 is not None else None,
-                    "twist_rate": float(twist_rate),
+                    "twist_rate": twist_rate,
                     "twist": num(twist) if twist is not None else None,
                     "arc": num(arc) if arc is not None else None,
                     "via": [_vec(p) for p in via] if via is not None else None,
@@ -179,7 +203,7 @@ class Model:
         """Joints: `position` and axes are inertial, or with frame="node1"/"node2" given in
         that node's initial triad (position relative to the node)."""
         self.data["joints"].append(
-            _drop_none({"type": kind, "name": name, "node1": node1, "node2": node2, **fields})
+            _drop_none({"type": kind, "name": name, "node1": node1, "node2": node2, **copy.deepcopy(fields)})
         )
         return self
 
@@ -274,7 +298,7 @@ class Model:
             node1,
             node2,
             axis=_vec(axis),
-            pitch=float(pitch),
+            pitch=pitch,
             position=_vec(position) if position is not None else None,
             drive_delta=drive_delta,
             spring_delta=dict(spring_delta) if spring_delta is not None else None,
@@ -341,7 +365,7 @@ class Model:
         if isinstance(eta, Drive):
             fields["drive"] = eta.function
         elif eta is not None:
-            fields["eta"] = float(eta)
+            fields["eta"] = eta
         if spring is not None:
             fields["spring"] = dict(spring)
         if end_stops is not None:
@@ -353,7 +377,7 @@ class Model:
         """Start the listed nodes and beams (all their nodes) turning together at `rate` rad/s
         about `axis` through `center`: v = ω × (x − center), angular velocity ω."""
         self.data.setdefault("initial_spins", []).append(
-            {"axis": _vec(axis), "rate": float(rate), "center": _vec(center), "items": list(items)}
+            {"axis": _vec(axis), "rate": rate, "center": _vec(center), "items": list(items)}
         )
         return self
 
@@ -385,7 +409,7 @@ class Model:
     def sensor(self, kind, name, **fields):
         """A sensor: node_position, node_displacement, node_rotation, node_velocity (node=...),
         joint_coordinate, joint_reaction, drive_force (joint=...), energy."""
-        self.data["sensors"].append({"type": kind, "name": name, **fields})
+        self.data["sensors"].append({"type": kind, "name": name, **copy.deepcopy(fields)})
         return self
 
     def settings(self, **fields):
@@ -393,15 +417,16 @@ class Model:
         t_end, dt, output_dt, newton_tol, newton_increment_tol, max_newton_iterations,
         max_step_halvings; step_control ("adaptive", the default, or "fixed"), tolerance, dt_min, dt_max, max_growth, max_shrink;
         preload (start a dynamic run from the static equilibrium at t = 0), modified_newton."""
-        self.data["simulation"].update(fields)
+        self.data["simulation"].update(copy.deepcopy(fields))
         return self
 
     # --- conversion ------------------------------------------------------------------
     def to_dict(self) -> dict:
-        return copy.deepcopy(self.data)
+        """The model as plain data (numpy values converted; non-finite numbers rejected)."""
+        return _plain(self.data)
 
     def to_json(self) -> str:
-        return json.dumps(self.data)
+        return json.dumps(self.to_dict(), allow_nan=False)
 
     def validate(self) -> Model:
         """Raises ModelError naming every offending item."""
@@ -413,7 +438,7 @@ class Model:
         out; short lists on one line)."""
         self.validate()
         text = yaml.safe_dump(
-            self.data, sort_keys=False, default_flow_style=None, allow_unicode=True, width=100
+            self.to_dict(), sort_keys=False, default_flow_style=None, allow_unicode=True, width=100
         )
         if path is not None:
             Path(path).write_text(text)
@@ -437,9 +462,53 @@ class Model:
         )
 
 
+#: Largest model file read, bytes (a model is text; anything larger is a mistake).
+MAX_MODEL_FILE_BYTES = 64 * 2**20
+
+
+def read_model_text(path: str | Path) -> str:
+    """The text of a model file (UTF-8, or UTF-16/32 with a byte-order mark); a missing file,
+    a folder, a binary or oversized file is a ModelError naming the path."""
+    p = Path(path)
+    try:
+        size = p.stat().st_size
+        if p.is_dir():
+            raise _core.ModelError(f"{p}: is a folder, not a model file")
+        if size > MAX_MODEL_FILE_BYTES:
+            raise _core.ModelError(
+                f"{p}: {size} bytes is too large for a model file (at most {MAX_MODEL_FILE_BYTES})"
+            )
+        raw = p.read_bytes()
+    except FileNotFoundError:
+        raise _core.ModelError(f"{p}: no such model file") from None
+    except OSError as e:
+        raise _core.ModelError(f"{p}: cannot read the model file: {e.strerror}") from None
+    for bom, codec in (
+        (b"\xef\xbb\xbf", "utf-8-sig"),
+        (b"\xff\xfe\0\0", "utf-32"),
+        (b"\0\0\xfe\xff", "utf-32"),
+        (b"\xff\xfe", "utf-16"),
+        (b"\xfe\xff", "utf-16"),
+    ):
+        if raw.startswith(bom):
+            try:
+                return raw.decode(codec)
+            except UnicodeDecodeError:
+                break
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise _core.ModelError(
+            f"{p}: not a text model file (byte {e.start} is not UTF-8); save it as UTF-8 YAML"
+        ) from None
+    if "\0" in text:
+        raise _core.ModelError(f"{p}: not a text model file (it contains NUL bytes)")
+    return text
+
+
 def load(path: str | Path) -> Model:
     """Loads and validates a YAML model file (errors name the item, e.g. `joints[3].axis`)."""
-    text = Path(path).read_text()
+    text = read_model_text(path)
     try:
         canonical = _core.parse_yaml(text)
     except _core.ModelError as e:

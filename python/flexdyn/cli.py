@@ -4,13 +4,18 @@ check a model, list its natural frequencies, or print the model-file schema."""
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+from pathlib import Path
 
 from . import _core
 
+#: Exit statuses: a bad model or command line; a run that could not complete.
+EXIT_USAGE, EXIT_RUN = 2, 3
+
 
 def _run(args) -> int:
-    from .results import simulate
+    from .results import Interrupted, simulate
 
     try:
         res = simulate(
@@ -24,17 +29,14 @@ def _run(args) -> int:
             out=args.output,
             progress=not args.quiet and sys.stderr.isatty(),
         )
-    except _core.ModelError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
-    except _core.SolverError as e:
-        print(f"error: {e}", file=sys.stderr)
-        if args.output:
-            print(f"partial results written to {args.output}", file=sys.stderr)
-        return 3
-    except KeyboardInterrupt as e:
-        print(f"\n{e}", file=sys.stderr)
-        return 130
+    except (_core.SolverError, Interrupted) as e:
+        _error(e)
+        if args.output and getattr(e, "results", None) is not None:
+            n = e.results.sizes.get("time", e.results.sizes.get("load_factor", 0))
+            print(f"partial results: {n} samples in {args.output}", file=sys.stderr)
+        if isinstance(e, Interrupted):
+            return 128 + int(e.signal)
+        return EXIT_RUN
     for w in res.attrs.get("warnings_list", []):
         print(f"warning: {w}", file=sys.stderr)
     s = res.attrs["stats"]
@@ -63,11 +65,7 @@ def _run(args) -> int:
 def _modes(args) -> int:
     from .modes import modes
 
-    try:
-        md = modes(args.model, args.count, preload=not args.no_preload)
-    except (_core.ModelError, _core.SolverError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+    md = modes(args.model, args.count, preload=not args.no_preload)
     print(f"{'mode':>4}  {'omega [rad/s]':>14}  {'f [Hz]':>12}")
     for k, w, f in zip(md.mode.values, md.omega.values, md.frequency.values):
         print(f"{k:>4}  {w:>14.6g}  {f:>12.6g}")
@@ -84,11 +82,8 @@ def _compiled(path):
     try:
         m = load(path)
         return m, _core.Simulation(json.dumps(m.to_dict()))
-    except (_core.ModelError, _core.SolverError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return None
-    except OSError as e:
-        print(f"error: cannot read the model file: {e}", file=sys.stderr)
+    except _core.FlexdynError as e:
+        _error(e)
         return None
 
 
@@ -134,11 +129,14 @@ def _info(args) -> int:
 def _plot(args) -> int:
     from .plots import plot
 
+    for f in args.results:
+        if not Path(f).is_file():
+            raise _core.ModelError(f"{f}: no such results file")
     try:
         out = plot(args.results, args.sensors, args.output, labels=args.labels, title=args.title)
-    except (KeyError, FileNotFoundError, ValueError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+    except (KeyError, ValueError) as e:
+        print(f"error: {str(e).strip(chr(39))}", file=sys.stderr)
+        return EXIT_USAGE
     print(f"wrote {out}")
     return 0
 
@@ -203,7 +201,41 @@ def main(argv=None) -> int:
     s = sub.add_parser("schema", help="print the JSON Schema of model files")
     s.set_defaults(func=lambda a: print(_core.schema()) or 0)
     args = p.parse_args(argv)
-    return args.func(args)
+    return _guarded(args)
+
+
+def _error(e: BaseException):
+    """One line (or the error's own lines) on stderr, never a traceback."""
+    print(f"error: {e}", file=sys.stderr)
+
+
+def _guarded(args) -> int:
+    """Runs a command; every failure becomes a message and an exit status (2: the model or
+    the command line, 3: the run). FLEXDYN_DEBUG=1 shows the traceback of an unexpected one."""
+    from .storage import OutputError
+
+    try:
+        return args.func(args)
+    except (_core.ModelError, OutputError) as e:  # an unusable results path is a usage error
+        _error(e)
+        return EXIT_USAGE
+    except _core.FlexdynError as e:
+        _error(e)
+        return EXIT_RUN
+    except KeyboardInterrupt:
+        print("\ninterrupted", file=sys.stderr)
+        return 130
+    except OSError as e:
+        _error(f"{e.filename or ''}: {e.strerror}" if e.strerror else e)
+        return EXIT_USAGE
+    except Exception as e:  # the promise: no traceback reaches a user
+        if os.environ.get("FLEXDYN_DEBUG"):
+            raise
+        _error(
+            f"internal error ({type(e).__name__}: {e}); this is a bug in flexdyn, please report it "
+            "with the model file (FLEXDYN_DEBUG=1 shows where)"
+        )
+        return EXIT_RUN
 
 
 if __name__ == "__main__":

@@ -170,6 +170,11 @@ impl Model {
     /// Checks references, physical admissibility and settings; returns every problem found.
     pub fn validate(&self) -> Result<(), ModelErrors> {
         let mut c = Checker { errors: Vec::new() };
+        // Size first: a model over the limits is refused before its mesh is even named.
+        self.check_size(&mut c);
+        if !c.errors.is_empty() {
+            return Err(ModelErrors(c.errors));
+        }
         c.vec3("gravity".into(), &self.gravity);
 
         // Names are unique across all items so that every reference is unambiguous.
@@ -737,7 +742,6 @@ impl Model {
         if !(s.newton_tol.is_finite() && s.newton_tol > 0.0 && s.newton_tol < 1.0) {
             c.err("simulation.newton_tol", "must be between 0 and 1");
         }
-        self.check_size(&mut c);
         if !(s.newton_increment_tol.is_finite() && s.newton_increment_tol > 0.0) {
             c.err(
                 "simulation.newton_increment_tol",
@@ -801,7 +805,8 @@ impl Model {
             None => return,
         };
         let samples = s.t_end / interval;
-        if samples.is_finite() && samples > MAX_SAMPLES {
+        // inf (a subnormal interval) is over the limit too; NaN is a bad t_end, reported there.
+        if samples > MAX_SAMPLES {
             c.err(
                 key,
                 format!(

@@ -121,8 +121,11 @@ pub fn mesh(
         let s = node_s(e, local);
         let r = line.section_triad(spans[e].0, s);
         let name = b.node_name(k);
-        if let Some(i) = names.iter().position(|x| *x == name) {
-            ids.push(i);
+        // Only the end nodes can be existing nodes (`start_node`/`end_node`); the others are
+        // new `<beam>.k` (names cannot contain `.`), so no search: meshing stays linear.
+        let shared = (k == 0 && b.start_node.is_some()) || (k + 1 == count && b.end_node.is_some());
+        if shared {
+            ids.push(find(names, &name));
             continue;
         }
         let x = line.point(spans[e].0, s);

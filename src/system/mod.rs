@@ -295,9 +295,10 @@ impl System {
         }
         // Beam nodes whose sections' centres of mass are offset: all of the node's mass moves
         // to its combined centre of mass, with the inertia about it (parallel axes).
+        let scale = length_scale(&nodes); // once: per node it made compiling quadratic
         for (a, s1) in first_moment.iter().enumerate() {
             let m = mass[a];
-            if m <= 0.0 || s1.norm() <= 1e-12 * m * length_scale(&nodes) {
+            if m <= 0.0 || s1.norm() <= 1e-12 * m * scale {
                 continue;
             }
             let c = s1.scale_f(1.0 / m);
