@@ -27,6 +27,8 @@ CHUNK_STEPS = 500
 FLUSH_WALL_S = 1.0
 #: Results kept in memory (without `out`) beyond this many bytes are refused before the run.
 MAX_IN_MEMORY_BYTES = 4 * 2**30
+#: Samples held back from the file beyond this many bytes are written at once.
+PENDING_BYTES = 16 * 2**20
 
 
 def model_data(model) -> dict:
@@ -228,21 +230,37 @@ class _Run:
     def __init__(self, sim, writer, on_chunk, progress):
         self.sim, self.writer, self.on_chunk, self.progress = sim, writer, on_chunk, progress
         self.chunks_t, self.chunks_v = [], []
-        self.start = time.perf_counter()
+        self.pending, self.pending_rows = [], 0
+        self.start = self.last_flush = time.perf_counter()
         self.error = None
         self.completed = False
         self.stats = {}
 
-    def drain(self, callback=True):
-        """Hands the samples Rust has recorded to the file (first) and to the caller."""
+    def drain(self, callback=True, flush=False):
+        """Hands the samples Rust has recorded to the caller and towards the file, which is
+        written (and synced) once FLUSH_WALL_S has passed since the last write, or `flush`:
+        often enough to lose little, seldom enough that syncing costs nothing."""
         t, v = self.sim.take_samples()
         if self.writer:
-            self.writer.append(t, v)
+            self.pending.append((t, v))
+            self.pending_rows += len(t)
+            due = time.perf_counter() - self.last_flush >= FLUSH_WALL_S
+            if flush or due or self.pending_rows * v.shape[1] * 8 > PENDING_BYTES:
+                self.flush()
         else:
             self.chunks_t.append(t)
             self.chunks_v.append(v)
         if callback and self.on_chunk is not None:
             self.on_chunk(t, v)
+
+    def flush(self):
+        """Writes the pending samples to the file (durably)."""
+        if self.pending:
+            times = np.concatenate([t for t, _ in self.pending])
+            values = np.concatenate([v for _, v in self.pending])
+            self.pending, self.pending_rows = [], 0
+            self.writer.append(times, values)
+        self.last_flush = time.perf_counter()
 
     def loop(self, stop):
         sim = self.sim
@@ -258,7 +276,7 @@ class _Run:
                         sim.advance_to(sim.t + chunk, FLUSH_WALL_S)
                 except _core.SolverError as e:
                     self.error = e
-                self.drain()
+                self.drain(flush=self.error is not None or sim.done)
                 if self.progress:
                     _progress(sim, self.start)
                 if self.error is not None:
@@ -283,7 +301,7 @@ class _Run:
         )
         try:
             self.sim.flush()
-            self.drain(callback=False)
+            self.drain(callback=False, flush=True)
         except OutputError:
             pass  # the file keeps what it had; the interruption is what gets reported
 
@@ -297,6 +315,7 @@ class _Run:
         self.run_attrs["completed"] = int(self.completed and sim.done)
         if self.writer:
             try:
+                self.flush()  # what an exception in user code left pending
                 self.writer.finish(self.run_attrs)
             except OutputError as e:
                 if self.error is None:

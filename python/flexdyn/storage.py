@@ -18,6 +18,7 @@ moving data.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import struct
 from pathlib import Path
@@ -111,14 +112,29 @@ class AppendOnlyNetcdf:
             out.append(struct.pack(">iiq", _DOUBLE, 8, start + 8 * k))
         return b"".join(out)
 
-    def _write_all(self, data: bytes, offset: int):
-        view = memoryview(data)
+    def _write_all(self, data: bytes, offset: int) -> int:
+        """Writes `data` at `offset`; on an error, the exception carries `.written` bytes."""
+        view, done = memoryview(data), 0
         while view:
-            n = os.pwrite(self.fd, view, offset)
-            view, offset = view[n:], offset + n
+            try:
+                n = os.pwrite(self.fd, view, offset + done)
+            except OSError as e:
+                e.written = done
+                raise
+            view, done = view[n:], done + n
+        return done
+
+    def _commit(self, records: int):
+        """Makes `records` records count: synced data first, then the header's count."""
+        os.fsync(self.fd)
+        os.pwrite(self.fd, struct.pack(">i", records), 4)
+        os.fsync(self.fd)
+        self.records = records
 
     def append(self, times, values):
-        """Adds len(times) records; on return they are on disk and counted in the header."""
+        """Adds len(times) records; on return they are on disk and counted in the header. If
+        the disk fills up, the records that did fit are kept and OutputError says how many
+        the file holds."""
         m = len(times)
         if m == 0:
             return
@@ -127,16 +143,17 @@ class AppendOnlyNetcdf:
         rows[:, 1:] = values
         try:
             self._write_all(rows.tobytes(), self.data_start + self.records * self.record_bytes)
-            os.fsync(self.fd)
-            os.pwrite(self.fd, struct.pack(">i", self.records + m), 4)
-            os.fsync(self.fd)
+            self._commit(self.records + m)
         except OSError as e:
+            fitted = getattr(e, "written", 0) // self.record_bytes
+            with contextlib.suppress(OSError):
+                if fitted:
+                    self._commit(self.records + fitted)
             raise OutputError(
                 e.errno,
                 f"cannot write to the results file {self.path}: {e.strerror}; "
                 f"it holds the {self.records} samples written before",
             ) from e
-        self.records += m
 
     def finish(self, attrs: dict):
         """Adds `attrs` to the global attributes, in the header's spare room (nothing moves)."""
