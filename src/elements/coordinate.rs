@@ -258,10 +258,8 @@ impl CoordinateDrive {
 
     /// Its rate (chain rule through the map).
     pub fn target_rate(&self, t: f64) -> f64 {
-        let r = self.function.rate(t);
-        self.map
-            .as_ref()
-            .map_or(r, |m| r * m.dzeta_deta(self.function.value(t)))
+        let f = self.function.jet(t); // value and rate from one evaluation
+        self.map.as_ref().map_or(f.d, |m| f.d * m.dzeta_deta(f.v))
     }
 
     /// Work done by the drive over a converged step: from the energy identity, the terms the

@@ -11,7 +11,8 @@ impl System {
         let bad = |v: f64, r: f64| !(v.is_finite() && r.is_finite());
         for d in &self.drives {
             for t in [t_i, t_f] {
-                let (v, r) = (d.function.value(t), d.function.rate(t));
+                let f = d.function.jet(t);
+                let (v, r) = (f.v, f.d);
                 if bad(v, r) {
                     let name = &self.row_names[d.row].0;
                     return Some(undefined("the drive", name, t, v, r));
