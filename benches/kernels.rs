@@ -80,7 +80,7 @@ fn newton_iteration(c: &mut Criterion) {
 
 /// One cubic beam element's residual and exact tangent (EP and ED), inside the beam pendulum.
 fn beam_element(c: &mut Criterion) {
-    use flexdyn::elements::{eval_kernel, Kernel};
+    use flexdyn::elements::Kernel;
     let yaml = r#"
 gravity: [0, -9.81, 0]
 nodes:
@@ -115,7 +115,7 @@ simulation: {dt: 0.001}
         let mut res = vec![0.0; n];
         let name = format!("beam_element/cubic_{scheme:?}").to_lowercase();
         c.bench_function(&name, |b| {
-            b.iter(|| eval_kernel(el, &ctx, &y, &mut res, Some((&mut vals, &pos))))
+            b.iter(|| el.evaluate(&ctx, &y, &mut res, Some((&mut vals, &pos))))
         });
     }
 }

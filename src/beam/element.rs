@@ -23,6 +23,43 @@ use crate::vec3::{M3, V3};
 /// History entries per Gauss point: the triad (9, row-major) and the curvature k* (3).
 pub const HISTORY_PER_POINT: usize = 12;
 
+/// Node quantities of the chain rule through the Gauss points (spatial):
+/// `Δx, ρ = R_i r, v_j, ω_j, v_f, ω_f` (the last four under ED only).
+pub(super) const Q_GROUPS: usize = 6;
+/// Point inputs: `Δx′, ρ, ρ′, v_j′, ω_j, ω_j′, v_f′, ω_f, ω_f′`.
+pub(super) const P_GROUPS: usize = 9;
+/// Each point input as (node quantity, true: Σ h′ᵅ · / false: Σ hᵅ ·).
+pub(super) const P_FROM: [(usize, bool); P_GROUPS] = [
+    (0, true),
+    (1, false),
+    (1, true),
+    (2, true),
+    (3, false),
+    (3, true),
+    (4, true),
+    (5, false),
+    (5, true),
+];
+/// Point outputs: `[ne, arm, nk]` of the groups D (discrete gradient, moments at i),
+/// I (rate form at i) and F (rate form at f, moments through the nodes' R_f).
+pub(super) const O_GROUPS: usize = 9;
+/// Row quantities of a node before its rotations: f-force, f-moment (R_iᵀ), f-moment (R_fᵀ),
+/// j-force, j-moment (R_iᵀ).
+pub(super) const U_GROUPS: usize = 5;
+/// Each row quantity as Σ sign · (h′ᵅ if true, else hᵅ) · output.
+pub(super) const U_FROM: [&[(usize, bool, f64)]; U_GROUPS] = [
+    &[(0, true, 1.0), (3, true, 1.0), (6, true, -1.0)],
+    &[
+        (1, false, 1.0),
+        (4, false, 1.0),
+        (2, true, 1.0),
+        (5, true, 1.0),
+    ],
+    &[(7, false, -1.0), (8, true, -1.0)],
+    &[(3, true, 1.0), (6, true, 1.0)],
+    &[(4, false, 1.0), (5, true, 1.0)],
+];
+
 #[derive(Clone, Debug)]
 pub struct GaussPoint {
     /// Parent coordinate ξ of the point.
@@ -66,16 +103,16 @@ pub fn write_history(h: &mut [f64], r: &M3<f64>, k: &V3<f64>) {
 }
 
 /// Mid-point kinematics of one Gauss point over a step.
-struct PointStep<T> {
+pub(super) struct PointStep<T> {
     /// Strains at i and f, `[e*, κ]` relative to the reference.
-    eps_i: [T; 6],
-    eps_f: [T; 6],
-    rg_i: M3<T>,
-    rg_f: M3<T>,
-    rm: M3<T>,
-    hm: M3<T>,
-    xp_i: V3<T>,
-    xp_f: V3<T>,
+    pub(super) eps_i: [T; 6],
+    pub(super) eps_f: [T; 6],
+    pub(super) rg_i: M3<T>,
+    pub(super) rg_f: M3<T>,
+    pub(super) rm: M3<T>,
+    pub(super) hm: M3<T>,
+    pub(super) xp_i: V3<T>,
+    pub(super) xp_f: V3<T>,
 }
 
 fn mat6_mul<T: Real>(c: &Mat6, e: &[T; 6]) -> [T; 6] {
@@ -130,33 +167,37 @@ impl BeamElement {
 
     /// Kinematics of Gauss point `g` from the i-state, its history and the local increments.
     fn point_step<T: Real>(&self, ctx: &StepCtx, g: usize, y: &[T]) -> PointStep<T> {
+        let p = self.point_inputs(g, &self.node_quantities(ctx, y));
+        self.point_kinematics(ctx, g, &p[0], &p[1], &p[2])
+    }
+
+    /// Kinematics of Gauss point `g` from the interpolated increments `Δx′`, `ρ` and `ρ′`.
+    pub(super) fn point_kinematics<T: Real>(
+        &self,
+        ctx: &StepCtx,
+        g: usize,
+        dxp: &V3<T>,
+        rho: &V3<T>,
+        rho_p: &V3<T>,
+    ) -> PointStep<T> {
         let p = &self.points[g];
-        let per = Self::per(ctx);
         let hist = &ctx.state.history[self.history + g * HISTORY_PER_POINT..];
         let (rg_i64, k_i64) = read_history(hist);
         let rg_i = M3::<T>::from_f64(&rg_i64);
-        let mut xp_i = V3::<T>::zero();
-        let mut dxp = V3::<T>::zero();
-        let mut rho = V3::<T>::zero();
-        let mut rho_p = V3::<T>::zero();
+        let mut xp_i = V3::<f64>::zero();
         for (a, &node) in self.nodes.iter().enumerate() {
-            let n = &ctx.state.nodes[node];
-            xp_i += V3::from_f64(n.x.scale_f(p.dh[a]));
-            dxp += v3(y, per * a).scale_f(p.dh[a]);
-            // Spatial nodal increment ρ^α = R^α_i r^α.
-            let rho_a = M3::<T>::from_f64(&n.r).mul_v(&v3(y, per * a + 3));
-            rho += rho_a.scale_f(p.h[a]);
-            rho_p += rho_a.scale_f(p.dh[a]);
+            xp_i += ctx.state.nodes[node].x.scale_f(p.dh[a]);
         }
-        let xp_f = xp_i + dxp;
-        let rg_f = cayley(&rho).mul_m(&rg_i);
+        let xp_i = V3::<T>::from_f64(xp_i);
+        let xp_f = xp_i + *dxp;
+        let rg_f = cayley(rho).mul_m(&rg_i);
         let rm = (rg_i + rg_f).scale_f(0.5);
-        let hm = M3::identity() - rho.outer(&rho).scale(T::one() / (rho.norm_sq() + 4.0));
+        let hm = M3::identity() - rho.outer(rho).scale(T::one() / (rho.norm_sq() + 4.0));
         let e1 = V3::<T>::new(T::one(), T::zero(), T::zero());
         let e_i = rg_i.tmul_v(&xp_i) - e1 - V3::from_f64(p.e0);
         let e_f = rg_f.tmul_v(&xp_f) - e1 - V3::from_f64(p.e0);
         let k_i = V3::<T>::from_f64(k_i64) - V3::from_f64(p.k0);
-        let k_f = k_i + rm.tmul_v(&hm.mul_v(&rho_p));
+        let k_f = k_i + rm.tmul_v(&hm.mul_v(rho_p));
         let mut eps_i = [T::zero(); 6];
         let mut eps_f = [T::zero(); 6];
         e_i.write_to(&mut eps_i[..3]);
@@ -172,6 +213,169 @@ impl BeamElement {
             hm,
             xp_i,
             xp_f,
+        }
+    }
+
+    /// Spatial node quantities `[Δx, ρ = R_i r, v_j, ω_j = R_i W_j, v_f, ω_f = R_f W_f]` of
+    /// each node (the last four under ED only; the jump velocities are carried as h·V_j).
+    pub(super) fn node_quantities<T: Real>(
+        &self,
+        ctx: &StepCtx,
+        y: &[T],
+    ) -> [[V3<T>; Q_GROUPS]; MAX_NODES] {
+        let per = Self::per(ctx);
+        let mut q = [[V3::<T>::zero(); Q_GROUPS]; MAX_NODES];
+        for (a, &node) in self.nodes.iter().enumerate() {
+            let ri = M3::<T>::from_f64(&ctx.state.nodes[node].r);
+            let r = v3(y, per * a + 3);
+            q[a][0] = v3(y, per * a);
+            q[a][1] = ri.mul_v(&r);
+            if ctx.ed() {
+                let inv_h = 1.0 / ctx.h;
+                let vj = v3(y, per * a + 6).scale_f(inv_h);
+                let wj = v3(y, per * a + 9).scale_f(inv_h);
+                q[a][2] = vj;
+                q[a][3] = ri.mul_v(&wj);
+                q[a][4] = q[a][0].scale_f(2.0 * inv_h) - vj;
+                // R_f W_f = R_i cay(r)(2r/h − W_j) = R_i (2r/h − cay(r) W_j).
+                q[a][5] = ri.mul_v(&(r.scale_f(2.0 * inv_h) - cayley(&r).mul_v(&wj)));
+            }
+        }
+        q
+    }
+
+    /// The point inputs (see [`P_FROM`]) of Gauss point `g`.
+    pub(super) fn point_inputs<T: Real>(
+        &self,
+        g: usize,
+        q: &[[V3<T>; Q_GROUPS]; MAX_NODES],
+    ) -> [V3<T>; P_GROUPS] {
+        let p = &self.points[g];
+        std::array::from_fn(|k| {
+            let (from, derivative) = P_FROM[k];
+            let mut s = V3::<T>::zero();
+            for (a, qa) in q.iter().enumerate().take(self.nodes.len()) {
+                s += qa[from].scale_f(if derivative { p.dh[a] } else { p.h[a] });
+            }
+            s
+        })
+    }
+
+    /// The forces of Gauss point `g` as the outputs `[ne, arm, nk]` of three groups (see
+    /// [`O_GROUPS`]); `deps_j` is added to the ED strain jump state ε_j (zero, but seeded to
+    /// obtain `∂/∂ε_j` for the tangent).
+    /// - EP (D only): the mean sectional forces `C(ε_i + ε_f)/2` through the exact discrete
+    ///   gradient: `ne = w R_m n`, `nk = w H R_m m`, `arm = ne × (x′_i + x′_f)/2`.
+    /// - ED (ed-scheme-notes §3.2): `ε_j = ε_i + h/6 (B_i V_j − B_f V_f)`, D with
+    ///   `N̄ = C(ε_j + ε_f)/2`; I and F are the rate forms `B(q)ᵀ(−dN/12)` at i and f, with
+    ///   `dN = C(ε_f − ε_j)`: `ne = w R_g n`, `nk = w R_g m`, `arm = ne × x′`.
+    /// - Statics: F with `−C ε_f` (so that the f-rows receive `B(q_f)ᵀ C ε_f`).
+    pub(super) fn point_outputs<T: Real>(
+        &self,
+        ctx: &StepCtx,
+        g: usize,
+        p: &[V3<T>; P_GROUPS],
+        deps_j: &[T; 6],
+    ) -> [V3<T>; O_GROUPS] {
+        let pt = &self.points[g];
+        let c = &pt.stiffness;
+        let w = pt.weight;
+        let ps = self.point_kinematics(ctx, g, &p[0], &p[1], &p[2]);
+        let mut o = [V3::<T>::zero(); O_GROUPS];
+        let rate_form = |o: &mut [V3<T>], rg: &M3<T>, xp: &V3<T>, n: &[T; 6]| {
+            o[0] = rg.mul_v(&V3([n[0], n[1], n[2]])).scale_f(w);
+            o[2] = rg.mul_v(&V3([n[3], n[4], n[5]])).scale_f(w);
+            o[1] = o[0].cross(xp);
+        };
+        if ctx.is_static() {
+            let n = mat6_mul(c, &ps.eps_f).map(|v| -v);
+            rate_form(&mut o[6..], &ps.rg_f, &ps.xp_f, &n);
+            return o;
+        }
+        let mut mean = [T::zero(); 6];
+        let mut jump = [T::zero(); 6];
+        if ctx.ed() {
+            let h6 = ctx.h / 6.0;
+            let bi_e = ps.rg_i.tmul_v(&(p[3] + ps.xp_i.cross(&p[4])));
+            let bi_k = ps.rg_i.tmul_v(&p[5]);
+            let bf_e = ps.rg_f.tmul_v(&(p[6] + ps.xp_f.cross(&p[7])));
+            let bf_k = ps.rg_f.tmul_v(&p[8]);
+            for k in 0..6 {
+                let (bi, bf) = if k < 3 {
+                    (bi_e.0[k], bf_e.0[k])
+                } else {
+                    (bi_k.0[k - 3], bf_k.0[k - 3])
+                };
+                let eps_j = ps.eps_i[k] + (bi - bf) * h6 + deps_j[k];
+                mean[k] = (eps_j + ps.eps_f[k]) * 0.5;
+                jump[k] = ps.eps_f[k] - eps_j;
+            }
+        } else {
+            for k in 0..6 {
+                mean[k] = (ps.eps_i[k] + ps.eps_f[k]) * 0.5;
+            }
+        }
+        let n = mat6_mul(c, &mean);
+        o[0] = ps.rm.mul_v(&V3([n[0], n[1], n[2]])).scale_f(w);
+        o[2] = ps
+            .hm
+            .mul_v(&ps.rm.mul_v(&V3([n[3], n[4], n[5]])))
+            .scale_f(w);
+        o[1] = o[0].cross(&(ps.xp_i + ps.xp_f).scale_f(0.5));
+        if ctx.ed() {
+            let neg = mat6_mul(c, &jump).map(|v| v * (-1.0 / 12.0));
+            rate_form(&mut o[3..6], &ps.rg_i, &ps.xp_i, &neg);
+            rate_form(&mut o[6..], &ps.rg_f, &ps.xp_f, &neg);
+        }
+        o
+    }
+
+    /// Adds Gauss point `g`'s outputs to each node's row quantities (see [`U_FROM`]).
+    pub(super) fn add_row_quantities<T: Real>(
+        &self,
+        g: usize,
+        o: &[V3<T>; O_GROUPS],
+        u: &mut [[V3<T>; U_GROUPS]; MAX_NODES],
+    ) {
+        let p = &self.points[g];
+        for (a, ua) in u.iter_mut().enumerate().take(self.nodes.len()) {
+            for (k, terms) in U_FROM.iter().enumerate() {
+                for &(out, derivative, sign) in terms.iter() {
+                    let c = if derivative { p.dh[a] } else { p.h[a] };
+                    ua[k] += o[out].scale_f(sign * c);
+                }
+            }
+        }
+    }
+
+    /// The nodal rows from the row quantities: f-force `u0`; f-moment `R_iᵀ u1 + R_fᵀ u2`;
+    /// ED j-force `u3` and j-moment `R_iᵀ u4 − R_fᵀ u2` (material moments).
+    pub(super) fn add_nodal_rows<T: Real>(
+        &self,
+        ctx: &StepCtx,
+        y: &[T],
+        u: &[[V3<T>; U_GROUPS]; MAX_NODES],
+        res: &mut [T],
+    ) {
+        let per = Self::per(ctx);
+        let at_f = ctx.ed() || ctx.is_static();
+        for (a, &node) in self.nodes.iter().enumerate() {
+            let ri = M3::<T>::from_f64(&ctx.state.nodes[node].r);
+            let ua = &u[a];
+            add3(res, per * a, ua[0]);
+            let mut m = ri.tmul_v(&ua[1]);
+            let mf = if at_f {
+                let rf = ri.mul_m(&cayley(&v3(y, per * a + 3)));
+                rf.tmul_v(&ua[2])
+            } else {
+                V3::zero()
+            };
+            m += mf;
+            add3(res, per * a + 3, m);
+            if ctx.ed() {
+                add3(res, per * a + 6, ua[3]);
+                add3(res, per * a + 9, ri.tmul_v(&ua[4]) - mf);
+            }
         }
     }
 
@@ -193,37 +397,6 @@ impl BeamElement {
     /// Offset of node `a`'s increments `[Δx, r]` in the element's local block.
     pub fn local_delta(&self, ctx: &StepCtx, a: usize) -> usize {
         Self::per(ctx) * a
-    }
-
-    /// Adds `weight · B^Dᵀ N` to the f-rows: the exact discrete gradient's transpose.
-    /// `δe* = R_mᵀ(δx′ + x̃′_a δρ)` and `δκ = R_mᵀ H δρ′`, with `δρ^α` mapped to the material
-    /// unknowns by `R^α_iᵀ`.
-    fn add_discrete_forces<T: Real>(
-        &self,
-        ctx: &StepCtx,
-        g: usize,
-        ps: &PointStep<T>,
-        n: &[T; 6],
-        res: &mut [T],
-    ) {
-        let p = &self.points[g];
-        let per = Self::per(ctx);
-        let ne = ps.rm.mul_v(&V3([n[0], n[1], n[2]])).scale_f(p.weight);
-        let nk = ps
-            .hm
-            .mul_v(&ps.rm.mul_v(&V3([n[3], n[4], n[5]])))
-            .scale_f(p.weight);
-        let xa = (ps.xp_i + ps.xp_f).scale_f(0.5);
-        let arm = ne.cross(&xa);
-        for (a, &node) in self.nodes.iter().enumerate() {
-            let ri = M3::<T>::from_f64(&ctx.state.nodes[node].r);
-            add3(res, per * a, ne.scale_f(p.dh[a]));
-            add3(
-                res,
-                per * a + 3,
-                ri.tmul_v(&(arm.scale_f(p.h[a]) + nk.scale_f(p.dh[a]))),
-            );
-        }
     }
 
     /// Strain rate `ε̇ = B(q) V` at a state with triad `rg`, tangent `xp` and nodal rotations
@@ -249,34 +422,6 @@ impl BeamElement {
         let e = rg.tmul_v(&(vp + xp.cross(&wg)));
         let k = rg.tmul_v(&wp);
         [e.0[0], e.0[1], e.0[2], k.0[0], k.0[1], k.0[2]]
-    }
-
-    /// Adds `weight · B(q)ᵀ N` to the rows at `offset` (0: f-rows, 6: j-rows) of each node.
-    #[allow(clippy::too_many_arguments)]
-    fn add_rate_forces<T: Real>(
-        &self,
-        ctx: &StepCtx,
-        g: usize,
-        rg: &M3<T>,
-        xp: &V3<T>,
-        rot: &[M3<T>],
-        n: &[T; 6],
-        offset: usize,
-        res: &mut [T],
-    ) {
-        let p = &self.points[g];
-        let per = Self::per(ctx);
-        let ne = rg.mul_v(&V3([n[0], n[1], n[2]])).scale_f(p.weight);
-        let nk = rg.mul_v(&V3([n[3], n[4], n[5]])).scale_f(p.weight);
-        let arm = ne.cross(xp);
-        for a in 0..self.nodes.len() {
-            add3(res, per * a + offset, ne.scale_f(p.dh[a]));
-            add3(
-                res,
-                per * a + offset + 3,
-                rot[a].tmul_v(&(arm.scale_f(p.h[a]) + nk.scale_f(p.dh[a]))),
-            );
-        }
     }
 
     /// ED: nodal rotations at i and f, and nodal velocities (v, material W) of the j- and
@@ -384,71 +529,31 @@ impl Kernel for BeamElement {
         &self.unknowns
     }
 
+    /// The residual through the Gauss points' forces (see [`BeamElement::point_outputs`]):
+    /// node quantities → point inputs → point outputs → row quantities → nodal rows. The
+    /// tangent (`beam/tangent.rs`) is the chain rule through the same stages.
     fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], res: &mut [T]) {
-        let h = ctx.h;
-        let nn = self.nodes.len();
-        if ctx.is_static() {
-            // Statics: B(q_f)ᵀ C ε_f, rotation rows material at f (as every static kernel).
-            let mut rot_f = [M3::<T>::identity(); MAX_NODES];
-            for (a, &node) in self.nodes.iter().enumerate() {
-                let ri = M3::<T>::from_f64(&ctx.state.nodes[node].r);
-                rot_f[a] = ri.mul_m(&cayley(&v3(y, 6 * a + 3)));
-            }
-            for g in 0..self.points.len() {
-                let ps = self.point_step(ctx, g, y);
-                let n = mat6_mul(&self.points[g].stiffness, &ps.eps_f);
-                self.add_rate_forces(ctx, g, &ps.rg_f, &ps.xp_f, &rot_f[..nn], &n, 0, res);
-            }
-            return;
-        }
-        // Only ED uses the nodal rotations and velocities of the j- and f-states.
-        let (rot_i, rot_f, vel_j, vel_f) = if ctx.ed() {
-            self.ed_motion(ctx, y)
-        } else {
-            (
-                [M3::identity(); MAX_NODES],
-                [M3::identity(); MAX_NODES],
-                [(V3::zero(), V3::zero()); MAX_NODES],
-                [(V3::zero(), V3::zero()); MAX_NODES],
-            )
-        };
+        let q = self.node_quantities(ctx, y);
+        let mut u = [[V3::<T>::zero(); U_GROUPS]; MAX_NODES];
+        let none = [T::zero(); 6];
         for g in 0..self.points.len() {
-            let c = &self.points[g].stiffness;
-            let ps = self.point_step(ctx, g, y);
-            if !ctx.ed() {
-                // EP: mean sectional forces through the exact discrete gradient.
-                let mut mean = [T::zero(); 6];
-                for k in 0..6 {
-                    mean[k] = (ps.eps_i[k] + ps.eps_f[k]) * 0.5;
-                }
-                self.add_discrete_forces(ctx, g, &ps, &mat6_mul(c, &mean), res);
-                continue;
-            }
-            // ED (ed-scheme-notes §3.2): ε_j = ε_i + h/6 (B_i V_j − B_f V_f),
-            // N̄ = C(ε_j + ε_f)/2, dN = C(ε_f − ε_j).
-            let bi_vj = self.strain_rate(g, &ps.rg_i, &ps.xp_i, &rot_i[..nn], &vel_j[..nn]);
-            let bf_vf = self.strain_rate(g, &ps.rg_f, &ps.xp_f, &rot_f[..nn], &vel_f[..nn]);
-            let mut mean = [T::zero(); 6];
-            let mut jump = [T::zero(); 6];
-            for k in 0..6 {
-                let eps_j = ps.eps_i[k] + (bi_vj[k] - bf_vf[k]) * (h / 6.0);
-                mean[k] = (eps_j + ps.eps_f[k]) * 0.5;
-                jump[k] = ps.eps_f[k] - eps_j;
-            }
-            let nbar = mat6_mul(c, &mean);
-            let dn = mat6_mul(c, &jump);
-            self.add_discrete_forces(ctx, g, &ps, &nbar, res);
-            // −P_f ∋ (1/12)(B_f − B_i)ᵀ dN ;  −P_j/6 ∋ −(1/12)(B_i + B_f)ᵀ dN.
-            let mut d12 = [T::zero(); 6];
-            let mut neg = [T::zero(); 6];
-            for k in 0..6 {
-                d12[k] = dn[k] / 12.0;
-                neg[k] = -d12[k];
-            }
-            self.add_rate_forces(ctx, g, &ps.rg_f, &ps.xp_f, &rot_f[..nn], &d12, 0, res);
-            self.add_rate_forces(ctx, g, &ps.rg_i, &ps.xp_i, &rot_i[..nn], &neg, 0, res);
-            self.add_rate_forces(ctx, g, &ps.rg_i, &ps.xp_i, &rot_i[..nn], &neg, 6, res);
-            self.add_rate_forces(ctx, g, &ps.rg_f, &ps.xp_f, &rot_f[..nn], &neg, 6, res);
+            let p = self.point_inputs(g, &q);
+            let o = self.point_outputs(ctx, g, &p, &none);
+            self.add_row_quantities(g, &o, &mut u);
+        }
+        self.add_nodal_rows(ctx, y, &u, res);
+    }
+
+    fn evaluate(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        res: &mut [f64],
+        jac: Option<(&mut [f64], &[usize])>,
+    ) {
+        match jac {
+            None => crate::elements::eval_kernel(self, ctx, y, res, None),
+            Some((vals, pos)) => super::tangent::evaluate(self, ctx, y, res, vals, pos),
         }
     }
 }

@@ -7,3 +7,4 @@ pub mod line_load;
 pub mod path;
 pub mod section;
 pub mod shape;
+mod tangent;

@@ -1,0 +1,300 @@
+//! The beam element's exact tangent by the chain rule through its Gauss points.
+//!
+//! The residual is staged (`element.rs`): nodal unknowns → spatial node quantities `q`
+//! (nonlinear per node) → point inputs `p` (shape-function sums) → point outputs `o` (the
+//! sectional forces, nonlinear per point) → row quantities `u` (shape-function sums) → nodal
+//! rows (the nodes' rotations, nonlinear per node). Differentiating the whole element with
+//! dual numbers costs `⌈n/8⌉` passes over every point (6 for a cubic ED element); here each
+//! point is differentiated once, over its 9 geometric inputs (plus, under ED, the 6 strains of
+//! the j-state, through which its 18 velocity inputs act linearly), and the stages are chained
+//! with 3×3 blocks. The generic finite-difference harness checks the result like any kernel's.
+
+use super::element::{BeamElement, O_GROUPS, P_FROM, P_GROUPS, Q_GROUPS, U_FROM, U_GROUPS};
+use super::shape::MAX_NODES;
+use crate::elements::{v3, StepCtx, MAX_LOCAL};
+use crate::rotation::{cayley, cayley_tangent};
+use crate::scalar::Dual;
+use crate::vec3::{M3, V3};
+
+type B3 = M3<f64>;
+
+/// Directions of the per-point dual pass: the geometric inputs `Δx′, ρ, ρ′` (9), and under
+/// ED the offsets of ε_j (6).
+const GEO: usize = 9;
+
+/// Residual into `res` and exact tangent into `vals` at `pos` (row-major over the element's
+/// unknowns), for a time step of either scheme or a static step.
+pub(super) fn evaluate(
+    el: &BeamElement,
+    ctx: &StepCtx,
+    y: &[f64],
+    res: &mut [f64],
+    vals: &mut [f64],
+    pos: &[usize],
+) {
+    let idx = crate::elements::Kernel::unknowns(el);
+    let n = idx.len();
+    let mut yl = [0.0f64; MAX_LOCAL];
+    for (l, &g) in idx.iter().enumerate() {
+        yl[l] = y[g];
+    }
+    let yl = &yl[..n];
+    let nn = el.nodes.len();
+    let ed = ctx.ed();
+    let q = el.node_quantities::<f64>(ctx, yl);
+    let mut u = [[V3::<f64>::zero(); U_GROUPS]; MAX_NODES];
+    // G[a][b][ug][qg]: ∂u^a/∂q^b accumulated over the points.
+    let mut gab = [[[[B3::zero(); Q_GROUPS]; U_GROUPS]; MAX_NODES]; MAX_NODES];
+    let n_p = if ed { P_GROUPS } else { 3 };
+    // Row quantities that can be nonzero: EP f-force and f-moment at i; statics f-force and
+    // f-moment at f; ED all.
+    let active: &[usize] = if ed {
+        &[0, 1, 2, 3, 4]
+    } else if ctx.is_static() {
+        &[0, 2]
+    } else {
+        &[0, 1]
+    };
+    for g in 0..el.points.len() {
+        let (o, jac) = if ed {
+            point_jacobian::<{ GEO + 6 }>(el, ctx, g, &q)
+        } else {
+            point_jacobian::<GEO>(el, ctx, g, &q)
+        };
+        el.add_row_quantities(g, &o, &mut u);
+        let pt = &el.points[g];
+        for a in 0..nn {
+            // W[ug][pg] = ∂u^a/∂p at this point.
+            let mut w = [[B3::zero(); P_GROUPS]; U_GROUPS];
+            for &ug in active {
+                for &(out, derivative, sign) in U_FROM[ug].iter() {
+                    let c = sign * if derivative { pt.dh[a] } else { pt.h[a] };
+                    if c != 0.0 {
+                        for pg in 0..n_p {
+                            axpy(&mut w[ug][pg], c, &jac[out][pg]);
+                        }
+                    }
+                }
+            }
+            for b in 0..nn {
+                for (pg, &(qg, derivative)) in P_FROM.iter().enumerate().take(n_p) {
+                    let c = if derivative { pt.dh[b] } else { pt.h[b] };
+                    for &ug in active {
+                        axpy(&mut gab[a][b][ug][qg], c, &w[ug][pg]);
+                    }
+                }
+            }
+        }
+    }
+    let mut rl = [0.0f64; MAX_LOCAL];
+    el.add_nodal_rows(ctx, yl, &u, &mut rl[..n]);
+    for (l, &g) in idx.iter().enumerate() {
+        res[g] += rl[l];
+    }
+    let nodal = NodalMaps::new(el, ctx, yl, &u);
+    let per = n / nn;
+    let groups = per / 3;
+    for a in 0..nn {
+        for b in 0..nn {
+            let k = nodal.block(a, b, &gab[a][b], active);
+            for (rg, row) in k.iter().enumerate().take(groups) {
+                for (yg, blk) in row.iter().enumerate().take(groups) {
+                    for i in 0..3 {
+                        let r = (per * a + 3 * rg + i) * n + per * b + 3 * yg;
+                        for j in 0..3 {
+                            vals[pos[r + j]] += blk.0[i][j];
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Point outputs and their Jacobian `∂o/∂p` in 3×3 blocks `[output group][input group]`.
+fn point_jacobian<const N: usize>(
+    el: &BeamElement,
+    ctx: &StepCtx,
+    g: usize,
+    q: &[[V3<f64>; Q_GROUPS]; MAX_NODES],
+) -> ([V3<f64>; O_GROUPS], [[B3; P_GROUPS]; O_GROUPS]) {
+    let p = el.point_inputs(g, q);
+    let mut pd = [V3::<Dual<N>>::zero(); P_GROUPS];
+    for (k, v) in p.iter().enumerate() {
+        for i in 0..3 {
+            let dir = (k < 3).then_some(3 * k + i);
+            pd[k].0[i] = Dual::seeded(v.0[i], dir);
+        }
+    }
+    let deps: [Dual<N>; 6] =
+        std::array::from_fn(|k| Dual::seeded(0.0, ctx.ed().then_some(GEO + k)));
+    let od = el.point_outputs(ctx, g, &pd, &deps);
+    let o: [V3<f64>; O_GROUPS] = std::array::from_fn(|k| od[k].re());
+    let mut jac = [[B3::zero(); P_GROUPS]; O_GROUPS];
+    for (og, v) in od.iter().enumerate() {
+        for pg in 0..3 {
+            for i in 0..3 {
+                for j in 0..3 {
+                    jac[og][pg].0[i][j] = v.0[i].du[3 * pg + j];
+                }
+            }
+        }
+    }
+    if ctx.ed() {
+        velocity_columns(el, ctx, g, &p, &od, &mut jac);
+    }
+    (o, jac)
+}
+
+/// ED: the outputs are affine in the velocity inputs, which act only through ε_j:
+/// `∂o/∂p_k = (∂o/∂ε_j) (∂ε_j/∂p_k)`, with `ε_j = ε_i + h/6 (B_i V_j − B_f V_f)`.
+fn velocity_columns<const N: usize>(
+    el: &BeamElement,
+    ctx: &StepCtx,
+    g: usize,
+    p: &[V3<f64>; P_GROUPS],
+    od: &[V3<Dual<N>>; O_GROUPS],
+    jac: &mut [[B3; P_GROUPS]; O_GROUPS],
+) {
+    let ps = el.point_kinematics(ctx, g, &p[0], &p[1], &p[2]);
+    let h6 = ctx.h / 6.0;
+    let (rgi_t, rgf_t) = (ps.rg_i.transpose(), ps.rg_f.transpose());
+    // ∂ε_j/∂p_k: (strain half: 0 = e*, 1 = κ; its 3×3 block).
+    let de: [(usize, B3); 6] = [
+        (0, rgi_t.scale_f(h6)),
+        (0, rgi_t.mul_m(&ps.xp_i.tilde()).scale_f(h6)),
+        (1, rgi_t.scale_f(h6)),
+        (0, rgf_t.scale_f(-h6)),
+        (0, rgf_t.mul_m(&ps.xp_f.tilde()).scale_f(-h6)),
+        (1, rgf_t.scale_f(-h6)),
+    ];
+    for (og, v) in od.iter().enumerate() {
+        for half in 0..2 {
+            let mut e = B3::zero();
+            for i in 0..3 {
+                for j in 0..3 {
+                    e.0[i][j] = v.0[i].du[GEO + 3 * half + j];
+                }
+            }
+            for (k, (h, blk)) in de.iter().enumerate() {
+                if *h == half {
+                    jac[og][3 + k] = e.mul_m(blk);
+                }
+            }
+        }
+    }
+}
+
+/// The per-node maps around the chained point Jacobians: `∂q^b/∂y^b` on the column side,
+/// the nodal rotations on the row side, and the derivative of `R_fᵀ` on the diagonal.
+struct NodalMaps {
+    /// `Q[b][qg][yg]` (zero blocks skipped by `q_used`).
+    q: [[[B3; 4]; Q_GROUPS]; MAX_NODES],
+    /// `R_iᵀ`, `R_fᵀ` per node.
+    ri_t: [B3; MAX_NODES],
+    rf_t: [B3; MAX_NODES],
+    /// `(R_fᵀ u2)~ T(r)`: the derivative of the f-moment's `R_fᵀ u2` with respect to r.
+    diag: [B3; MAX_NODES],
+    ed: bool,
+    at_f: bool,
+}
+
+impl NodalMaps {
+    fn new(
+        el: &BeamElement,
+        ctx: &StepCtx,
+        y: &[f64],
+        u: &[[V3<f64>; U_GROUPS]; MAX_NODES],
+    ) -> Self {
+        let ed = ctx.ed();
+        let per = if ed { 12 } else { 6 };
+        let mut m = NodalMaps {
+            q: [[[B3::zero(); 4]; Q_GROUPS]; MAX_NODES],
+            ri_t: [B3::identity(); MAX_NODES],
+            rf_t: [B3::identity(); MAX_NODES],
+            diag: [B3::zero(); MAX_NODES],
+            ed,
+            at_f: ed || ctx.is_static(),
+        };
+        let id = B3::identity();
+        for (b, &node) in el.nodes.iter().enumerate() {
+            let ri = ctx.state.nodes[node].r;
+            let r = v3(y, per * b + 3);
+            let cay = cayley(&r);
+            let t = cayley_tangent(&r);
+            m.ri_t[b] = ri.transpose();
+            m.rf_t[b] = ri.mul_m(&cay).transpose();
+            m.diag[b] = m.rf_t[b].mul_v(&u[b][2]).tilde().mul_m(&t);
+            let q = &mut m.q[b];
+            q[0][0] = id;
+            q[1][1] = ri;
+            if ed {
+                let inv_h = 1.0 / ctx.h;
+                let wj = v3(y, per * b + 9).scale_f(inv_h);
+                q[2][2] = id.scale_f(inv_h);
+                q[3][3] = ri.scale_f(inv_h);
+                q[4][0] = id.scale_f(2.0 * inv_h);
+                q[4][2] = id.scale_f(-inv_h);
+                // ω_f = R_i (2r/h − cay(r) W_j); ∂(cay(r) W)/∂r = −cay(r) W̃ T(r).
+                q[5][1] = ri.mul_m(&(id.scale_f(2.0 * inv_h) + cay.mul_m(&wj.tilde()).mul_m(&t)));
+                q[5][3] = ri.mul_m(&cay).scale_f(-inv_h);
+            }
+        }
+        m
+    }
+
+    /// The 3×3 blocks `[row group][unknown group]` of `∂rows^a/∂y^b` from `G = ∂u^a/∂q^b`.
+    fn block(
+        &self,
+        a: usize,
+        b: usize,
+        g: &[[B3; Q_GROUPS]; U_GROUPS],
+        active: &[usize],
+    ) -> [[B3; 4]; 4] {
+        let (n_q, n_y) = if self.ed { (Q_GROUPS, 4) } else { (2, 2) };
+        // GQ[ug][yg] = Σ_qg G[ug][qg] Q^b[qg][yg].
+        let mut gq = [[B3::zero(); 4]; U_GROUPS];
+        for &ug in active {
+            for (qg, gblk) in g[ug].iter().enumerate().take(n_q) {
+                for yg in 0..n_y {
+                    if nonzero(&self.q[b][qg][yg]) {
+                        gq[ug][yg] = gq[ug][yg] + gblk.mul_m(&self.q[b][qg][yg]);
+                    }
+                }
+            }
+        }
+        let mut k = [[B3::zero(); 4]; 4];
+        for yg in 0..n_y {
+            k[0][yg] = gq[0][yg];
+            k[1][yg] = self.ri_t[a].mul_m(&gq[1][yg]);
+            if self.at_f {
+                k[1][yg] = k[1][yg] + self.rf_t[a].mul_m(&gq[2][yg]);
+            }
+            if self.ed {
+                k[2][yg] = gq[3][yg];
+                k[3][yg] = self.ri_t[a].mul_m(&gq[4][yg]) - self.rf_t[a].mul_m(&gq[2][yg]);
+            }
+        }
+        if a == b && self.at_f {
+            k[1][1] = k[1][1] + self.diag[a];
+            if self.ed {
+                k[3][1] = k[3][1] - self.diag[a];
+            }
+        }
+        k
+    }
+}
+
+#[inline]
+fn axpy(y: &mut B3, c: f64, x: &B3) {
+    for i in 0..3 {
+        for j in 0..3 {
+            y.0[i][j] += c * x.0[i][j];
+        }
+    }
+}
+
+#[inline]
+fn nonzero(m: &B3) -> bool {
+    m.0.iter().flatten().any(|&v| v != 0.0)
+}
