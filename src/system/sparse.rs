@@ -15,10 +15,12 @@ use faer::perm::PermRef;
 use faer::sparse::linalg::lu::simplicial::{
     factorize_simplicial_numeric_lu, factorize_simplicial_numeric_lu_scratch, SimplicialLu,
 };
-use faer::sparse::linalg::lu::{
-    factorize_symbolic_lu, LuRef, LuSymbolicParams, NumericLu, SymbolicLu,
+use faer::sparse::linalg::lu::supernodal::{
+    factorize_supernodal_numeric_lu, factorize_supernodal_numeric_lu_scratch,
+    factorize_supernodal_symbolic_lu, factorize_supernodal_symbolic_lu_scratch, SupernodalLu,
+    SymbolicSupernodalLu,
 };
-use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::{colamd, qr, SymbolicSupernodalParams};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par};
 
@@ -36,10 +38,25 @@ enum Backend {
         lu: SimplicialLu<usize, f64>,
     },
     /// faer's supernodal LU: symbolic analysis (COLAMD order, supernodes) once per pattern.
-    Supernodal {
-        symbolic: SymbolicLu<usize>,
-        numeric: NumericLu<usize, f64>,
-    },
+    Supernodal(Box<Supernodal>),
+}
+
+/// The supernodal LU with everything that depends only on the pattern computed once: the
+/// column order, the supernodal structure, and the pattern of Aᵀ (which the numeric
+/// factorization reads alongside A) with the position in A of each of its entries, so that a
+/// refactorization only gathers values (no transpose, no pattern checks).
+struct Supernodal {
+    symbolic: SymbolicSupernodalLu<usize>,
+    col_perm: Vec<usize>,
+    col_perm_inv: Vec<usize>,
+    row_perm: Vec<usize>,
+    row_perm_inv: Vec<usize>,
+    lu: SupernodalLu<usize, f64>,
+    t_col_ptr: Vec<usize>,
+    t_row_idx: Vec<usize>,
+    /// `t_values[p] = values[t_source[p]]`.
+    t_source: Vec<usize>,
+    t_values: Vec<f64>,
 }
 
 pub struct NewtonMatrix {
@@ -169,33 +186,39 @@ impl NewtonMatrix {
 
     /// Switches to faer's supernodal LU (COLAMD order, symbolic analysis now).
     pub fn use_supernodal(&mut self) {
-        let sym = SymbolicSparseColMatRef::new_checked(
-            self.n,
-            self.n,
-            &self.col_ptr,
-            None,
-            &self.row_idx,
-        );
-        let params = LuSymbolicParams {
-            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-            ..Default::default()
-        };
-        let symbolic = factorize_symbolic_lu(sym, params).expect("symbolic LU of the pattern");
+        let (t_col_ptr, t_row_idx, t_source) = transpose_pattern(self.n, &self.col_ptr, &self.row_idx);
+        let a = sym_ref(self.n, &self.col_ptr, &self.row_idx);
+        let at = sym_ref(self.n, &t_col_ptr, &t_row_idx);
+        let symbolic = supernodal_analysis(a, at);
+        let (symbolic, col_perm, col_perm_inv) = symbolic;
         let req = StackReq::any_of(&[
-            symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
-            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
+            factorize_supernodal_numeric_lu_scratch::<usize, f64>(&symbolic, Default::default()),
+            faer::sparse::linalg::lu::supernodal::solve_in_place_scratch::<usize, f64>(
+                self.n,
+                1,
+                Par::Seq,
+            ),
         ]);
         self.scratch = MemBuffer::new(req);
-        self.backend = Backend::Supernodal {
+        let nnz = t_row_idx.len();
+        self.backend = Backend::Supernodal(Box::new(Supernodal {
             symbolic,
-            numeric: NumericLu::new(),
-        };
+            col_perm,
+            col_perm_inv,
+            row_perm: vec![0; self.n],
+            row_perm_inv: vec![0; self.n],
+            lu: SupernodalLu::new(),
+            t_col_ptr,
+            t_row_idx,
+            t_source,
+            t_values: vec![0.0; nnz],
+        }));
         self.orderings += 1;
     }
 
-    /// Whether the supernodal factorization is in use.
+    /// Whether the supernodal LU is in use.
     pub fn is_supernodal(&self) -> bool {
-        matches!(self.backend, Backend::Supernodal { .. })
+        matches!(self.backend, Backend::Supernodal(_))
     }
 
     pub fn nnz(&self) -> usize {
@@ -209,14 +232,10 @@ impl NewtonMatrix {
     /// Numeric LU (partial pivoting) of the current values, with the analysis of the pattern
     /// reused; the factor storage and scratch memory are reused.
     pub fn factor(&mut self) -> Result<(), String> {
-        let sym = SymbolicSparseColMatRef::new_checked(
-            self.n,
-            self.n,
-            &self.col_ptr,
-            None,
-            &self.row_idx,
-        );
-        let a = SparseColMatRef::new(sym, &self.values[..self.row_idx.len()]);
+        let n = self.n;
+        let values = &self.values[..self.row_idx.len()];
+        let a = SparseColMatRef::new(sym_ref(n, &self.col_ptr, &self.row_idx), values);
+        let stack = MemStack::new(&mut self.scratch);
         match &mut self.backend {
             Backend::Simplicial {
                 col_perm,
@@ -225,27 +244,31 @@ impl NewtonMatrix {
                 row_perm_inv,
                 lu,
             } => {
-                let cp = PermRef::new_checked(col_perm, col_perm_inv, self.n);
-                factorize_simplicial_numeric_lu(
-                    row_perm,
-                    row_perm_inv,
-                    lu,
+                // SAFETY: built as mutually inverse permutations of 0..n (`use_simplicial_with`).
+                let cp = unsafe { PermRef::new_unchecked(col_perm, col_perm_inv, n) };
+                factorize_simplicial_numeric_lu(row_perm, row_perm_inv, lu, a, cp, stack)
+                    .map_err(|e| format!("sparse LU failed: {e:?}"))?;
+            }
+            Backend::Supernodal(sn) => {
+                for (t, &src) in sn.t_values.iter_mut().zip(&sn.t_source) {
+                    *t = values[src];
+                }
+                let at = SparseColMatRef::new(sym_ref(n, &sn.t_col_ptr, &sn.t_row_idx), &sn.t_values);
+                // SAFETY: COLAMD's permutation and its inverse (`supernodal_analysis`).
+                let cp = unsafe { PermRef::new_unchecked(&sn.col_perm, &sn.col_perm_inv, n) };
+                factorize_supernodal_numeric_lu(
+                    &mut sn.row_perm,
+                    &mut sn.row_perm_inv,
+                    &mut sn.lu,
                     a,
+                    at,
                     cp,
-                    MemStack::new(&mut self.scratch),
+                    &sn.symbolic,
+                    Par::Seq,
+                    stack,
+                    Default::default(),
                 )
                 .map_err(|e| format!("sparse LU failed: {e:?}"))?;
-            }
-            Backend::Supernodal { symbolic, numeric } => {
-                symbolic
-                    .factorize_numeric_lu(
-                        numeric,
-                        a,
-                        Par::Seq,
-                        MemStack::new(&mut self.scratch),
-                        Default::default(),
-                    )
-                    .map_err(|e| format!("sparse LU failed: {e:?}"))?;
             }
         }
         self.numeric_factorizations += 1;
@@ -254,7 +277,10 @@ impl NewtonMatrix {
 
     /// Solves `A x = rhs` in place with the last factorization.
     pub fn solve(&mut self, rhs: &mut [f64]) {
-        let mat = MatMut::from_column_major_slice_mut(rhs, self.n, 1);
+        let n = self.n;
+        let mat = MatMut::from_column_major_slice_mut(rhs, n, 1);
+        let stack = MemStack::new(&mut self.scratch);
+        // SAFETY (all permutations): the factorization's own, mutually inverse, of 0..n.
         match &self.backend {
             Backend::Simplicial {
                 col_perm,
@@ -263,24 +289,15 @@ impl NewtonMatrix {
                 row_perm_inv,
                 lu,
             } => {
-                let rp = PermRef::new_checked(row_perm, row_perm_inv, self.n);
-                let cp = PermRef::new_checked(col_perm, col_perm_inv, self.n);
-                lu.solve_in_place_with_conj(
-                    rp,
-                    cp,
-                    Conj::No,
-                    mat,
-                    Par::Seq,
-                    MemStack::new(&mut self.scratch),
-                );
+                let rp = unsafe { PermRef::new_unchecked(row_perm, row_perm_inv, n) };
+                let cp = unsafe { PermRef::new_unchecked(col_perm, col_perm_inv, n) };
+                lu.solve_in_place_with_conj(rp, cp, Conj::No, mat, Par::Seq, stack);
             }
-            Backend::Supernodal { symbolic, numeric } => {
-                LuRef::new_unchecked(symbolic, numeric).solve_in_place_with_conj(
-                    Conj::No,
-                    mat,
-                    Par::Seq,
-                    MemStack::new(&mut self.scratch),
-                );
+            Backend::Supernodal(sn) => {
+                let rp = unsafe { PermRef::new_unchecked(&sn.row_perm, &sn.row_perm_inv, n) };
+                let cp = unsafe { PermRef::new_unchecked(&sn.col_perm, &sn.col_perm_inv, n) };
+                sn.lu
+                    .solve_in_place_with_conj(rp, cp, Conj::No, mat, Par::Seq, stack);
             }
         }
     }
@@ -292,7 +309,7 @@ impl NewtonMatrix {
             Backend::Simplicial { lu, .. } => {
                 Some(lu.l_factor_unsorted().compute_nnz() + lu.u_factor_unsorted().compute_nnz())
             }
-            Backend::Supernodal { .. } => None,
+            Backend::Supernodal(_) => None,
         }
     }
 
@@ -331,6 +348,78 @@ impl NewtonMatrix {
         }
         d
     }
+}
+
+/// The pattern `(col_ptr, row_idx)` as faer's symbolic matrix. The pattern is built sorted
+/// and deduplicated by `from_blocks`, so faer's per-call checks are skipped.
+fn sym_ref<'a>(n: usize, col_ptr: &'a [usize], row_idx: &'a [usize]) -> SymbolicSparseColMatRef<'a, usize> {
+    debug_assert!(SymbolicSparseColMatRef::new_checked(n, n, col_ptr, None, row_idx).ncols() == n);
+    // SAFETY: column pointers increasing from 0 to nnz, rows sorted and unique below n.
+    unsafe { SymbolicSparseColMatRef::new_unchecked(n, n, col_ptr, None, row_idx) }
+}
+
+/// The pattern of Aᵀ and, for each of its entries, the position of the same entry in A.
+fn transpose_pattern(n: usize, col_ptr: &[usize], row_idx: &[usize]) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
+    let mut count = vec![0usize; n + 1];
+    for &i in row_idx {
+        count[i + 1] += 1;
+    }
+    for i in 0..n {
+        count[i + 1] += count[i];
+    }
+    let t_col_ptr = count.clone();
+    let mut next = count;
+    let mut t_row_idx = vec![0; row_idx.len()];
+    let mut t_source = vec![0; row_idx.len()];
+    for j in 0..n {
+        for p in col_ptr[j]..col_ptr[j + 1] {
+            let i = row_idx[p];
+            t_row_idx[next[i]] = j;
+            t_source[next[i]] = p;
+            next[i] += 1;
+        }
+    }
+    (t_col_ptr, t_row_idx, t_source)
+}
+
+/// faer's supernodal LU analysis (as its `factorize_symbolic_lu` does, forced supernodal):
+/// COLAMD column order, column elimination tree, column counts of AᵀA, supernodes.
+fn supernodal_analysis(
+    a: SymbolicSparseColMatRef<'_, usize>,
+    at: SymbolicSparseColMatRef<'_, usize>,
+) -> (SymbolicSupernodalLu<usize>, Vec<usize>, Vec<usize>) {
+    let n = a.ncols();
+    let nnz = a.row_idx().len();
+    let mut perm = vec![0usize; n];
+    let mut perm_inv = vec![0usize; n];
+    let mut mem = MemBuffer::new(StackReq::any_of(&[
+        colamd::order_scratch::<usize>(n, n, nnz),
+        qr::col_etree_scratch::<usize>(n, n),
+        qr::postorder_scratch::<usize>(n),
+        StackReq::new::<usize>(5 * n + n),
+        factorize_supernodal_symbolic_lu_scratch::<usize>(n, n),
+    ]));
+    colamd::order(&mut perm, &mut perm_inv, a, Default::default(), MemStack::new(&mut mem))
+        .expect("COLAMD order of the pattern");
+    let cp = PermRef::new_checked(&perm, &perm_inv, n);
+    let mut etree = vec![0usize; n];
+    let mut post = vec![0usize; n];
+    let mut col_counts = vec![0usize; n];
+    let mut min_col = vec![0usize; n];
+    let etree = qr::col_etree(a, Some(cp), &mut etree, MemStack::new(&mut mem));
+    qr::postorder(&mut post, etree, MemStack::new(&mut mem));
+    qr::column_counts_ata(&mut col_counts, &mut min_col, at, Some(cp), etree, &post, MemStack::new(&mut mem));
+    let symbolic = factorize_supernodal_symbolic_lu(
+        a,
+        Some(cp),
+        &min_col,
+        etree,
+        &col_counts,
+        MemStack::new(&mut mem),
+        SymbolicSupernodalParams::default(),
+    )
+    .expect("supernodal LU analysis of the pattern");
+    (symbolic, perm, perm_inv)
 }
 
 /// Reverse Cuthill–McKee order of the symmetrised pattern (`cols[j]`: rows of column j):
