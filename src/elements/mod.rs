@@ -111,37 +111,59 @@ pub fn eval_kernel<K: Kernel>(
             }
         }
         Some((vals, pos)) => {
-            type D = Dual<DUAL_WIDTH>;
             assert!(
                 n <= MAX_DUAL_LOCAL,
                 "kernel block of {n} unknowns is too large to differentiate in one piece"
             );
-            let mut yl = [D::constant(0.0); MAX_DUAL_LOCAL];
-            let mut rl = [D::constant(0.0); MAX_DUAL_LOCAL];
-            let mut start = 0;
-            while start < n.max(1) {
-                for (l, &g) in idx.iter().enumerate() {
-                    let dir = (l >= start && l < start + DUAL_WIDTH).then(|| l - start);
-                    yl[l] = D::seeded(y[g], dir);
-                }
-                for v in rl[..n].iter_mut() {
-                    *v = D::constant(0.0);
-                }
-                k.residual(ctx, &yl[..n], &mut rl[..n]);
-                if start == 0 {
-                    for (l, &g) in idx.iter().enumerate() {
-                        res[g] += rl[l].re;
-                    }
-                }
-                let width = DUAL_WIDTH.min(n - start);
-                for i in 0..n {
-                    for d in 0..width {
-                        vals[pos[i * n + start + d]] += rl[i].du[d];
-                    }
-                }
-                start += DUAL_WIDTH;
+            // Buffers sized to the block: they are initialised on every pass.
+            match n {
+                0..=16 => dual_passes::<K, 16>(k, ctx, y, res, vals, pos),
+                17..=32 => dual_passes::<K, 32>(k, ctx, y, res, vals, pos),
+                _ => dual_passes::<K, MAX_DUAL_LOCAL>(k, ctx, y, res, vals, pos),
             }
         }
+    }
+}
+
+/// The residual and the tangent block by `⌈n / DUAL_WIDTH⌉` dual-number passes, with local
+/// buffers of `M ≥ n` entries.
+fn dual_passes<K: Kernel, const M: usize>(
+    k: &K,
+    ctx: &StepCtx,
+    y: &[f64],
+    res: &mut [f64],
+    vals: &mut [f64],
+    pos: &[usize],
+) {
+    type D = Dual<DUAL_WIDTH>;
+    let idx = k.unknowns();
+    let n = idx.len();
+    let mut yl = [D::constant(0.0); M];
+    let mut rl = [D::constant(0.0); M];
+    let mut start = 0;
+    while start < n.max(1) {
+        for (l, &g) in idx.iter().enumerate() {
+            let dir = (l >= start && l < start + DUAL_WIDTH).then(|| l - start);
+            yl[l] = D::seeded(y[g], dir);
+        }
+        if start > 0 {
+            for v in rl[..n].iter_mut() {
+                *v = D::constant(0.0);
+            }
+        }
+        k.residual(ctx, &yl[..n], &mut rl[..n]);
+        if start == 0 {
+            for (l, &g) in idx.iter().enumerate() {
+                res[g] += rl[l].re;
+            }
+        }
+        let width = DUAL_WIDTH.min(n - start);
+        for i in 0..n {
+            for d in 0..width {
+                vals[pos[i * n + start + d]] += rl[i].du[d];
+            }
+        }
+        start += DUAL_WIDTH;
     }
 }
 

@@ -186,7 +186,8 @@ impl NewtonMatrix {
 
     /// Switches to faer's supernodal LU (COLAMD order, symbolic analysis now).
     pub fn use_supernodal(&mut self) {
-        let (t_col_ptr, t_row_idx, t_source) = transpose_pattern(self.n, &self.col_ptr, &self.row_idx);
+        let (t_col_ptr, t_row_idx, t_source) =
+            transpose_pattern(self.n, &self.col_ptr, &self.row_idx);
         let a = sym_ref(self.n, &self.col_ptr, &self.row_idx);
         let at = sym_ref(self.n, &t_col_ptr, &t_row_idx);
         let symbolic = supernodal_analysis(a, at);
@@ -253,7 +254,8 @@ impl NewtonMatrix {
                 for (t, &src) in sn.t_values.iter_mut().zip(&sn.t_source) {
                     *t = values[src];
                 }
-                let at = SparseColMatRef::new(sym_ref(n, &sn.t_col_ptr, &sn.t_row_idx), &sn.t_values);
+                let at =
+                    SparseColMatRef::new(sym_ref(n, &sn.t_col_ptr, &sn.t_row_idx), &sn.t_values);
                 // SAFETY: COLAMD's permutation and its inverse (`supernodal_analysis`).
                 let cp = unsafe { PermRef::new_unchecked(&sn.col_perm, &sn.col_perm_inv, n) };
                 factorize_supernodal_numeric_lu(
@@ -352,14 +354,22 @@ impl NewtonMatrix {
 
 /// The pattern `(col_ptr, row_idx)` as faer's symbolic matrix. The pattern is built sorted
 /// and deduplicated by `from_blocks`, so faer's per-call checks are skipped.
-fn sym_ref<'a>(n: usize, col_ptr: &'a [usize], row_idx: &'a [usize]) -> SymbolicSparseColMatRef<'a, usize> {
+fn sym_ref<'a>(
+    n: usize,
+    col_ptr: &'a [usize],
+    row_idx: &'a [usize],
+) -> SymbolicSparseColMatRef<'a, usize> {
     debug_assert!(SymbolicSparseColMatRef::new_checked(n, n, col_ptr, None, row_idx).ncols() == n);
     // SAFETY: column pointers increasing from 0 to nnz, rows sorted and unique below n.
     unsafe { SymbolicSparseColMatRef::new_unchecked(n, n, col_ptr, None, row_idx) }
 }
 
 /// The pattern of Aᵀ and, for each of its entries, the position of the same entry in A.
-fn transpose_pattern(n: usize, col_ptr: &[usize], row_idx: &[usize]) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
+fn transpose_pattern(
+    n: usize,
+    col_ptr: &[usize],
+    row_idx: &[usize],
+) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
     let mut count = vec![0usize; n + 1];
     for &i in row_idx {
         count[i + 1] += 1;
@@ -399,8 +409,14 @@ fn supernodal_analysis(
         StackReq::new::<usize>(5 * n + n),
         factorize_supernodal_symbolic_lu_scratch::<usize>(n, n),
     ]));
-    colamd::order(&mut perm, &mut perm_inv, a, Default::default(), MemStack::new(&mut mem))
-        .expect("COLAMD order of the pattern");
+    colamd::order(
+        &mut perm,
+        &mut perm_inv,
+        a,
+        Default::default(),
+        MemStack::new(&mut mem),
+    )
+    .expect("COLAMD order of the pattern");
     let cp = PermRef::new_checked(&perm, &perm_inv, n);
     let mut etree = vec![0usize; n];
     let mut post = vec![0usize; n];
@@ -408,7 +424,15 @@ fn supernodal_analysis(
     let mut min_col = vec![0usize; n];
     let etree = qr::col_etree(a, Some(cp), &mut etree, MemStack::new(&mut mem));
     qr::postorder(&mut post, etree, MemStack::new(&mut mem));
-    qr::column_counts_ata(&mut col_counts, &mut min_col, at, Some(cp), etree, &post, MemStack::new(&mut mem));
+    qr::column_counts_ata(
+        &mut col_counts,
+        &mut min_col,
+        at,
+        Some(cp),
+        etree,
+        &post,
+        MemStack::new(&mut mem),
+    );
     let symbolic = factorize_supernodal_symbolic_lu(
         a,
         Some(cp),
