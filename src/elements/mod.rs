@@ -116,18 +116,21 @@ pub fn eval_kernel<K: Kernel>(
                 "kernel block of {n} unknowns is too large to differentiate in one piece"
             );
             // Buffers sized to the block: they are initialised on every pass.
+            // One pass as wide as a small block (a node's 12 ED unknowns), else passes of 8.
             match n {
-                0..=16 => dual_passes::<K, 16>(k, ctx, y, res, vals, pos),
-                17..=32 => dual_passes::<K, 32>(k, ctx, y, res, vals, pos),
-                _ => dual_passes::<K, MAX_DUAL_LOCAL>(k, ctx, y, res, vals, pos),
+                0..=8 => dual_passes::<K, 8, 8>(k, ctx, y, res, vals, pos),
+                9..=12 => dual_passes::<K, 12, 12>(k, ctx, y, res, vals, pos),
+                13..=16 => dual_passes::<K, 16, 16>(k, ctx, y, res, vals, pos),
+                17..=32 => dual_passes::<K, 32, DUAL_WIDTH>(k, ctx, y, res, vals, pos),
+                _ => dual_passes::<K, MAX_DUAL_LOCAL, DUAL_WIDTH>(k, ctx, y, res, vals, pos),
             }
         }
     }
 }
 
-/// The residual and the tangent block by `⌈n / DUAL_WIDTH⌉` dual-number passes, with local
-/// buffers of `M ≥ n` entries.
-fn dual_passes<K: Kernel, const M: usize>(
+/// The residual and the tangent block by `⌈n / W⌉` dual-number passes of width `W`, with
+/// local buffers of `M ≥ n` entries.
+fn dual_passes<K: Kernel, const M: usize, const W: usize>(
     k: &K,
     ctx: &StepCtx,
     y: &[f64],
@@ -135,20 +138,19 @@ fn dual_passes<K: Kernel, const M: usize>(
     vals: &mut [f64],
     pos: &[usize],
 ) {
-    type D = Dual<DUAL_WIDTH>;
     let idx = k.unknowns();
     let n = idx.len();
-    let mut yl = [D::constant(0.0); M];
-    let mut rl = [D::constant(0.0); M];
+    let mut yl = [Dual::<W>::constant(0.0); M];
+    let mut rl = [Dual::<W>::constant(0.0); M];
     let mut start = 0;
     while start < n.max(1) {
         for (l, &g) in idx.iter().enumerate() {
-            let dir = (l >= start && l < start + DUAL_WIDTH).then(|| l - start);
-            yl[l] = D::seeded(y[g], dir);
+            let dir = (l >= start && l < start + W).then(|| l - start);
+            yl[l] = Dual::seeded(y[g], dir);
         }
         if start > 0 {
             for v in rl[..n].iter_mut() {
-                *v = D::constant(0.0);
+                *v = Dual::constant(0.0);
             }
         }
         k.residual(ctx, &yl[..n], &mut rl[..n]);
@@ -157,13 +159,13 @@ fn dual_passes<K: Kernel, const M: usize>(
                 res[g] += rl[l].re;
             }
         }
-        let width = DUAL_WIDTH.min(n - start);
+        let width = W.min(n - start);
         for i in 0..n {
             for d in 0..width {
                 vals[pos[i * n + start + d]] += rl[i].du[d];
             }
         }
-        start += DUAL_WIDTH;
+        start += W;
     }
 }
 
