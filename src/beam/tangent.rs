@@ -23,7 +23,9 @@ type B3 = M3<f64>;
 const GEO: usize = 9;
 
 /// Residual into `res` and exact tangent into `vals` at `pos` (row-major over the element's
-/// unknowns), for a time step of either scheme or a static step.
+/// unknowns), for a time step of either scheme or a static step. Only the row quantities
+/// that can be nonzero are chained (EP: f-force and f-moment at i; statics: f-force and
+/// f-moment at f; ED: all), over the point inputs and node quantities the mode has.
 pub(super) fn evaluate(
     el: &BeamElement,
     ctx: &StepCtx,
@@ -31,6 +33,26 @@ pub(super) fn evaluate(
     res: &mut [f64],
     vals: &mut [f64],
     pos: &[usize],
+) {
+    let out = (res, vals, pos);
+    if ctx.ed() {
+        chained::<{ GEO + 6 }, U_GROUPS, Q_GROUPS, P_GROUPS>(el, ctx, y, out, [0, 1, 2, 3, 4]);
+    } else if ctx.is_static() {
+        chained::<GEO, 2, 2, 3>(el, ctx, y, out, [0, 2]);
+    } else {
+        chained::<GEO, 2, 2, 3>(el, ctx, y, out, [0, 1]);
+    }
+}
+
+/// [`evaluate`] with `N` dual directions per point, the row quantities `active` (`NU`), `NQ`
+/// node quantities and `NP` point inputs: the working arrays are no larger than the mode
+/// needs (they are zeroed on every call).
+fn chained<const N: usize, const NU: usize, const NQ: usize, const NP: usize>(
+    el: &BeamElement,
+    ctx: &StepCtx,
+    y: &[f64],
+    (res, vals, pos): (&mut [f64], &mut [f64], &[usize]),
+    active: [usize; NU],
 ) {
     let idx = crate::elements::Kernel::unknowns(el);
     let n = idx.len();
@@ -40,47 +62,32 @@ pub(super) fn evaluate(
     }
     let yl = &yl[..n];
     let nn = el.nodes.len();
-    let ed = ctx.ed();
     let q = el.node_quantities::<f64>(ctx, yl);
     let mut u = [[V3::<f64>::zero(); U_GROUPS]; MAX_NODES];
-    // G[a][b][ug][qg]: ∂u^a/∂q^b accumulated over the points.
-    let mut gab = [[[[B3::zero(); Q_GROUPS]; U_GROUPS]; MAX_NODES]; MAX_NODES];
-    let n_p = if ed { P_GROUPS } else { 3 };
-    // Row quantities that can be nonzero: EP f-force and f-moment at i; statics f-force and
-    // f-moment at f; ED all.
-    let active: &[usize] = if ed {
-        &[0, 1, 2, 3, 4]
-    } else if ctx.is_static() {
-        &[0, 2]
-    } else {
-        &[0, 1]
-    };
+    // G[a][b][k][qg]: ∂u^a_active[k]/∂q^b accumulated over the points.
+    let mut gab = [[[[B3::zero(); NQ]; NU]; MAX_NODES]; MAX_NODES];
     for g in 0..el.points.len() {
-        let (o, jac) = if ed {
-            point_jacobian::<{ GEO + 6 }>(el, ctx, g, &q)
-        } else {
-            point_jacobian::<GEO>(el, ctx, g, &q)
-        };
+        let (o, jac) = point_jacobian::<N>(el, ctx, g, &q);
         el.add_row_quantities(g, &o, &mut u);
         let pt = &el.points[g];
         for a in 0..nn {
-            // W[ug][pg] = ∂u^a/∂p at this point.
-            let mut w = [[B3::zero(); P_GROUPS]; U_GROUPS];
-            for &ug in active {
+            // W[k][pg] = ∂u^a_active[k]/∂p at this point.
+            let mut w = [[B3::zero(); NP]; NU];
+            for (wk, &ug) in w.iter_mut().zip(&active) {
                 for &(out, derivative, sign) in U_FROM[ug].iter() {
                     let c = sign * if derivative { pt.dh[a] } else { pt.h[a] };
                     if c != 0.0 {
-                        for pg in 0..n_p {
-                            axpy(&mut w[ug][pg], c, &jac[out][pg]);
+                        for (wkp, jp) in wk.iter_mut().zip(&jac[out]) {
+                            axpy(wkp, c, jp);
                         }
                     }
                 }
             }
             for b in 0..nn {
-                for (pg, &(qg, derivative)) in P_FROM.iter().enumerate().take(n_p) {
+                for (pg, &(qg, derivative)) in P_FROM.iter().enumerate().take(NP) {
                     let c = if derivative { pt.dh[b] } else { pt.h[b] };
-                    for &ug in active {
-                        axpy(&mut gab[a][b][ug][qg], c, &w[ug][pg]);
+                    for (gk, wk) in gab[a][b].iter_mut().zip(&w) {
+                        axpy(&mut gk[qg], c, &wk[pg]);
                     }
                 }
             }
@@ -96,7 +103,7 @@ pub(super) fn evaluate(
     let groups = per / 3;
     for a in 0..nn {
         for b in 0..nn {
-            let k = nodal.block(a, b, &gab[a][b], active);
+            let k = nodal.block(a, b, &gab[a][b], &active);
             for (rg, row) in k.iter().enumerate().take(groups) {
                 for (yg, blk) in row.iter().enumerate().take(groups) {
                     for i in 0..3 {
@@ -244,18 +251,18 @@ impl NodalMaps {
     }
 
     /// The 3×3 blocks `[row group][unknown group]` of `∂rows^a/∂y^b` from `G = ∂u^a/∂q^b`.
-    fn block(
+    fn block<const NU: usize, const NQ: usize>(
         &self,
         a: usize,
         b: usize,
-        g: &[[B3; Q_GROUPS]; U_GROUPS],
-        active: &[usize],
+        g: &[[B3; NQ]; NU],
+        active: &[usize; NU],
     ) -> [[B3; 4]; 4] {
-        let (n_q, n_y) = if self.ed { (Q_GROUPS, 4) } else { (2, 2) };
+        let n_y = if self.ed { 4 } else { 2 };
         // GQ[ug][yg] = Σ_qg G[ug][qg] Q^b[qg][yg].
         let mut gq = [[B3::zero(); 4]; U_GROUPS];
-        for &ug in active {
-            for (qg, gblk) in g[ug].iter().enumerate().take(n_q) {
+        for (gk, &ug) in g.iter().zip(active) {
+            for (qg, gblk) in gk.iter().enumerate() {
                 for yg in 0..n_y {
                     if nonzero(&self.q[b][qg][yg]) {
                         gq[ug][yg] = gq[ug][yg] + gblk.mul_m(&self.q[b][qg][yg]);
