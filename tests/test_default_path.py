@@ -128,16 +128,18 @@ def test_a_cantilever_runs_whatever_its_direction(scheme):
     # scaled constraint rows) failed Newton's force test.
     tips = []
     for angle in range(0, 360, 15):
-        res = fd.simulate(cantilever(angle), scheme=scheme)
+        res = fd.simulate(cantilever(angle), scheme=scheme, output_dt=1e-3)
         assert res["time"].values[-1] == pytest.approx(0.05), angle
         assert res.attrs["stats"]["max_constraint_violation"] < 1e-12, angle
         tips.append(np.stack([res[f"tip.{c}"].values for c in "xyz"], axis=1))
-    # Objectivity: every direction gives the same vertical motion (to 1e-6: the rotated
-    # geometry's round-off, carried through a thousand steps and the step choices, left at
-    # most 1.6e-9 under EP, whose beam keeps its undamped modes; a frame-dependent term would
-    # differ at O(1)), and no in-plane motion (the sag, 0.2 mm at this time, is vertical).
+    # Objectivity: every direction gives the same vertical motion, and no in-plane motion
+    # (the sag, 0.2 mm at this time, is vertical). A frame-dependent term would differ at
+    # O(1). Compared at common sample times to 1e-4: the rotated geometry's round-off may
+    # flip a discrete choice (modified Newton refactoring or not, the controller holding a
+    # step), and the step sequences then differ within the step error — measured 4e-6 under
+    # EP, whose beam keeps its undamped modes, 2e-13 under ED.
     for angle, tip in zip(range(0, 360, 15), tips):
-        assert np.abs(tip[:, 2] - tips[0][:, 2]).max() < 1e-6 * np.abs(tips[0][:, 2]).max(), angle
+        assert np.abs(tip[:, 2] - tips[0][:, 2]).max() < 1e-4 * np.abs(tips[0][:, 2]).max(), angle
         assert np.abs(tip[:, :2]).max() < 1e-3 * np.abs(tips[0][:, 2]).max(), angle
     assert np.abs(tips[0][:, 2]).max() > 1e-4
 

@@ -88,6 +88,14 @@ impl Measure {
         (tol * self.constraint_scale).min(Self::constraint_tol(sys, tol))
     }
 
+    /// How far from converged, in units of the tolerances: the larger of the force
+    /// residual over its tolerance and the violation over the tight constraint tolerance
+    /// (≤ 1: converged). Modified Newton's contraction rate is its ratio between iterates.
+    pub fn distance(&self, sys: &System, tol: f64) -> f64 {
+        let c = self.constraint / self.constraint_tight(sys, tol).max(f64::MIN_POSITIVE);
+        self.force_ratio(tol).max(c)
+    }
+
     /// Both conditions met (`previous`: the last iterate's measure).
     pub fn converged(&self, sys: &System, tol: f64, previous: Option<&Measure>) -> bool {
         self.forces_balance(tol, previous) && self.constraints_hold(sys, tol, previous)

@@ -1034,11 +1034,12 @@ pub struct SimulationSettings {
     pub newton_increment_tol: f64,
     #[serde(default = "default_max_iter")]
     pub max_newton_iterations: u32,
-    /// Modified Newton: reuse the LU factors (across steps of the same size too) while the
-    /// residual falls fast, refactoring as soon as it does not — about 2× faster; the step
-    /// converges linearly to `newton_tol` instead of overshooting it quadratically, so energy
-    /// identities hold to ~1e-9 rather than ~1e-12 of E.
-    #[serde(default)]
+    /// Modified Newton (the default): keep the LU factors across iterations and across
+    /// steps of the same size while the iteration contracts fast enough, factoring afresh
+    /// when it does not, and retrying a step that failed on kept factors with fresh ones.
+    /// The residual still meets `newton_tol`; it converges to it linearly instead of
+    /// overshooting it quadratically. `false`: full Newton, a fresh tangent every iteration.
+    #[serde(default = "default_true")]
     pub modified_newton: bool,
     /// `adaptive` steps (the default; `dt` is the first) chosen by a local error indicator
     /// against `tolerance`, or `fixed` steps of `dt`.
@@ -1115,6 +1116,10 @@ fn default_newton_tol() -> f64 {
 fn default_newton_increment_tol() -> f64 {
     1e-12
 }
+fn default_true() -> bool {
+    true
+}
+
 fn default_max_iter() -> u32 {
     25
 }
@@ -1132,7 +1137,7 @@ impl Default for SimulationSettings {
             newton_tol: default_newton_tol(),
             newton_increment_tol: default_newton_increment_tol(),
             max_newton_iterations: default_max_iter(),
-            modified_newton: false,
+            modified_newton: true,
             step_control: StepControl::default(),
             tolerance: default_tolerance(),
             preload: false,
