@@ -198,14 +198,17 @@ impl PySimulation {
         }
     }
 
-    /// Static analysis only: (K[n, n], M[n, n], labels) linearized about the current state
-    /// (see `Simulation::linearize`).
+    /// Static analysis only, linearized about the current state (see
+    /// `Simulation::linearize`): `(n, (k_indptr, k_indices, k_data), (m_rows, m_cols,
+    /// m_data), labels)` — K in compressed sparse columns, M as triplets.
+    #[allow(clippy::type_complexity)]
     fn linearize<'py>(
         &mut self,
         py: Python<'py>,
     ) -> PyResult<(
-        Bound<'py, PyArray2<f64>>,
-        Bound<'py, PyArray2<f64>>,
+        usize,
+        (Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<f64>>),
+        (Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<f64>>),
         Vec<String>,
     )> {
         if !self.sim.is_static() {
@@ -214,10 +217,15 @@ impl PySimulation {
             ));
         }
         let sim = &mut self.sim;
-        let (n, k, m, labels) = guarded("linearizing", || Ok(sim.linearize()))?;
-        let k = PyArray1::from_vec(py, k).reshape([n, n])?;
-        let m = PyArray1::from_vec(py, m).reshape([n, n])?;
-        Ok((k, m, labels))
+        let lin = guarded("linearizing", || Ok(sim.linearize()))?;
+        let (kp, ki, kv) = lin.stiffness;
+        let (mr, mc, mv) = lin.mass;
+        Ok((
+            lin.n,
+            (PyArray1::from_vec(py, kp), PyArray1::from_vec(py, ki), PyArray1::from_vec(py, kv)),
+            (PyArray1::from_vec(py, mr), PyArray1::from_vec(py, mc), PyArray1::from_vec(py, mv)),
+            lin.labels,
+        ))
     }
 
     #[getter]

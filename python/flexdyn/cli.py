@@ -65,7 +65,7 @@ def _run(args) -> int:
 def _modes(args) -> int:
     from .modes import modes
 
-    md = modes(args.model, args.count, preload=not args.no_preload)
+    md = modes(args.model, args.count, preload=not args.no_preload, method=args.method)
     print(f"{'mode':>4}  {'omega [rad/s]':>14}  {'f [Hz]':>12}")
     for k, w, f in zip(md.mode.values, md.omega.values, md.frequency.values):
         print(f"{k:>4}  {w:>14.6g}  {f:>12.6g}")
@@ -175,6 +175,13 @@ def main(argv=None) -> int:
     md.add_argument("model")
     md.add_argument("-n", "--count", type=int, default=10, help="number of modes (default 10)")
     md.add_argument("--no-preload", action="store_true", help="linearize about the initial configuration")
+    md.add_argument(
+        "--method",
+        choices=["auto", "dense", "sparse"],
+        default="auto",
+        help="eigen-solver: dense (every mode, memory ∝ n²), sparse (shift-invert Arnoldi), "
+        "auto (dense up to 1500 unknowns; the default)",
+    )
     md.set_defaults(func=_modes)
     for name in ("check", "validate"):
         v = sub.add_parser(name, help="check a model file (everything a run checks before its first step)")

@@ -1,10 +1,14 @@
 """Natural frequencies and mode shapes, linearized about a static equilibrium.
 
 The Rust core gives the static tangent K (elastic and geometric stiffness, including that of
-the constraint forces, bordered by the constraint gradients) and the lumped mass matrix M.
-The constraints are eliminated exactly with a null-space basis Z of their gradients, and the
-problem `ZᵀKZ φ = ω² ZᵀMZ φ` is solved densely with numpy in shift-invert form. (K carries
-the static solver's 1e-12 tangent regularisation, far below round-off of the eigenvalues.)
+the constraint forces, bordered by the constraint gradients) and the lumped mass matrix M,
+both sparse. The lowest modes are those of `K φ = ω² M φ` on the motions the constraints
+admit, found by shift-invert: the eigenvalues μ = 1/(ω² + σ) of largest magnitude of
+`(K + σM)⁻¹M`. Small models (up to `DENSE_LIMIT` unknowns) eliminate the constraints with a
+null-space basis of their gradients and solve densely with numpy; larger ones solve the
+bordered system `[K + σM  Bᵀ; B  0]` with a sparse LU (SuperLU) inside ARPACK's Arnoldi
+iteration (scipy), so memory and time grow with the matrix's nonzeros, not n². (K carries the
+static solver's 1e-12 tangent regularisation, far below round-off of the eigenvalues.)
 """
 
 from __future__ import annotations
@@ -12,13 +16,25 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 import xarray as xr
 
 from . import _core
 from .results import static_model_data
 
+# Above this many unknowns the sparse path (dense below: every mode, no iteration).
+DENSE_LIMIT = 1500
 
-def modes(model, count: int = 10, *, preload: bool = True, load_steps: int | None = None) -> xr.Dataset:
+
+def modes(
+    model,
+    count: int = 10,
+    *,
+    preload: bool = True,
+    load_steps: int | None = None,
+    method: str = "auto",
+) -> xr.Dataset:
     """The `count` lowest modes of a model about its static equilibrium under its loads and
     gravity (`preload=True`, solved as by `solve_static`) or about its initial configuration.
 
@@ -27,7 +43,13 @@ def modes(model, count: int = 10, *, preload: bool = True, load_steps: int | Non
     `dof` labels `<node>.<x|y|z|rx|ry|rz>`. Rigid-body modes of an unrestrained model appear
     with ω ≈ 0. Raises ModelError if some admissible motion carries no mass (give the node a
     body or restrain it).
+
+    `method`: "dense" (every mode of the constrained problem, memory ∝ n²), "sparse"
+    (shift-invert Arnoldi on the sparse matrices: a 1000-element beam's lowest modes in
+    seconds), or "auto" (dense up to DENSE_LIMIT unknowns).
     """
+    if method not in ("auto", "dense", "sparse"):
+        raise _core.ModelError(f'modes: method must be "auto", "dense" or "sparse", not {method!r}')
     data = static_model_data(model, load_steps)
     sim = _core.Simulation(json.dumps(data))
     if preload:
@@ -39,8 +61,47 @@ def modes(model, count: int = 10, *, preload: bool = True, load_steps: int | Non
                 "linearize about the initial configuration instead with preload=False "
                 "(flexdyn modes --no-preload)"
             ) from None
-    k, m, labels = sim.linearize()
-    rows = np.array([lab.startswith("row:") for lab in labels])
+    n, (kp, ki, kv), (mr, mc, mv), labels = sim.linearize()
+    k = sp.csc_matrix((kv, ki, kp), shape=(n, n))
+    m = sp.csc_matrix((mv, (mr, mc)), shape=(n, n))
+    rows = np.array([lab.startswith("row:") for lab in labels], dtype=bool)
+    q = ~rows
+    if method == "dense" or (method == "auto" and n <= DENSE_LIMIT):
+        omega2, shapes_q = _dense_modes(k.toarray(), m.toarray(), rows, count)
+    else:
+        omega2, shapes_q = _sparse_modes(k, m, rows, count)
+    count = omega2.size
+    omega = np.sqrt(np.clip(omega2, 0.0, None))
+    q_labels = [lab for lab, keep in zip(labels, q) if keep]
+    node_dofs = [i for i, lab in enumerate(q_labels) if not lab.startswith("coord:")]
+    shape = shapes_q[node_dofs, :].T
+    return xr.Dataset(
+        {
+            "omega": ("mode", omega, {"units": "rad/s"}),
+            # Negative below an unstable equilibrium (ω is then shown as 0).
+            "omega_squared": ("mode", omega2, {"units": "rad^2/s^2"}),
+            "frequency": ("mode", omega / (2 * np.pi), {"units": "Hz"}),
+            "shape": (("mode", "dof"), shape, {"units": "mass-normalized"}),
+        },
+        coords={"mode": np.arange(1, count + 1), "dof": [q_labels[i] for i in node_dofs]},
+        attrs={"model": data.get("name") or ""},
+    )
+
+
+def _shift(kqq_diag, mqq_diag):
+    """The shift σ: far below any elastic ω², enough to keep K + σM regular when there
+    are rigid-body modes."""
+    return 1e-10 * np.sum(kqq_diag) / np.sum(mqq_diag)
+
+
+def _mass_normalized(vecs, mqq):
+    return vecs / np.sqrt(np.einsum("im,im->m", vecs, mqq @ vecs))
+
+
+def _dense_modes(k, m, rows, count):
+    """Every mode of a small model: constraints eliminated with the null space Z of their
+    gradients, `ZᵀKZ φ = ω² ZᵀMZ φ` in shift-invert form. Returns (ω², shapes over the
+    non-row unknowns) of the `count` lowest."""
     q = ~rows
     kqq = k[np.ix_(q, q)]
     mqq = m[np.ix_(q, q)]
@@ -57,35 +118,52 @@ def modes(model, count: int = 10, *, preload: bool = True, load_steps: int | Non
     mr = z.T @ mqq @ z
     mr = 0.5 * (mr + mr.T)
     if np.any(np.linalg.eigvalsh(mr) <= 1e-14 * np.abs(mr).max()):
-        raise _core.ModelError(
-            "modes: some admissible motion carries no mass (a node without a body or beam "
-            "inertia that no joint restrains); give it a body or restrain it"
-        )
-    # Shift-invert: μ = 1/(ω² + σ) are the eigenvalues of (K + σM)⁻¹M. The lowest modes get
-    # the largest μ and so full relative accuracy, even when tiny rotary inertias put the
-    # highest ω² twenty orders of magnitude above them (a direct solve loses them). The
-    # shift (far below any elastic ω²) keeps K + σM regular when there are rigid-body modes.
-    sigma = 1e-10 * np.trace(kr) / np.trace(mr)
+        raise _core.ModelError(NO_MASS)
+    # The lowest modes get the largest μ and so full relative accuracy, even when tiny
+    # rotary inertias put the highest ω² twenty orders of magnitude above them (a direct
+    # solve loses them).
+    sigma = _shift(np.diag(kr), np.diag(mr))
     mu, vecs = np.linalg.eig(np.linalg.solve(kr + sigma * mr, mr))
     mu, vecs = mu.real, vecs.real
+    order = np.argsort(-mu)[: min(count, mu.size)]
+    vecs = z @ _mass_normalized(vecs[:, order], mr)
+    return 1.0 / mu[order] - sigma, vecs
+
+
+def _sparse_modes(k, m, rows, count):
+    """The `count` lowest modes of a large model by shift-invert Arnoldi on the bordered
+    system (the solves keep the iterates on the constraints). Same results as the dense
+    path (tests compare them)."""
+    q = np.flatnonzero(~rows)
+    mqq = m[q][:, q].tocsr()
+    sigma = _shift(k.diagonal()[q], mqq.diagonal())
+    try:
+        lu = spla.splu((k + sigma * m).tocsc())
+    except RuntimeError:
+        raise _core.ModelError(NO_MASS_OR_REDUNDANT) from None
+    n = k.shape[0]
+    rhs = np.zeros(n)
+
+    def apply(v):
+        rhs[q] = mqq @ v
+        return lu.solve(rhs)[q]
+
+    op = spla.LinearOperator((q.size, q.size), matvec=apply, dtype=float)
+    count = min(count, q.size - 2)
+    mu, vecs = spla.eigs(op, k=count, which="LM")
+    mu, vecs = mu.real, vecs.real
+    if not np.all(np.isfinite(mu)):
+        raise _core.ModelError(NO_MASS_OR_REDUNDANT)
     order = np.argsort(-mu)
-    count = min(count, mu.size)
-    omega2 = 1.0 / mu[order[:count]] - sigma
-    vecs = vecs[:, order[:count]]
-    vecs /= np.sqrt(np.einsum("im,ij,jm->m", vecs, mr, vecs))
-    omega = np.sqrt(np.clip(omega2, 0.0, None))
-    shapes_q = z @ vecs
-    q_labels = [lab for lab, keep in zip(labels, q) if keep]
-    node_dofs = [i for i, lab in enumerate(q_labels) if not lab.startswith("coord:")]
-    shape = shapes_q[node_dofs, :].T
-    return xr.Dataset(
-        {
-            "omega": ("mode", omega, {"units": "rad/s"}),
-            # Negative below an unstable equilibrium (ω is then shown as 0).
-            "omega_squared": ("mode", omega2, {"units": "rad^2/s^2"}),
-            "frequency": ("mode", omega / (2 * np.pi), {"units": "Hz"}),
-            "shape": (("mode", "dof"), shape, {"units": "mass-normalized"}),
-        },
-        coords={"mode": np.arange(1, count + 1), "dof": [q_labels[i] for i in node_dofs]},
-        attrs={"model": data.get("name") or ""},
-    )
+    return 1.0 / mu[order] - sigma, _mass_normalized(vecs[:, order], mqq)
+
+
+NO_MASS = (
+    "modes: some admissible motion carries no mass (a node without a body or beam "
+    "inertia that no joint restrains); give it a body or restrain it"
+)
+NO_MASS_OR_REDUNDANT = (
+    "modes: the shifted stiffness is singular: some admissible motion carries neither mass "
+    "nor stiffness (a node without a body or beam inertia that no joint restrains), or "
+    "constraints are redundant; give the node a body or restrain it"
+)

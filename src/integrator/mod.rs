@@ -431,13 +431,19 @@ impl Integrator {
         Ok(self.commit(sys, &ctx, report))
     }
 
-    /// The static tangent at `state` (dense, row-major over the EP layout): the stiffness of
-    /// elements, springs and follower loads with the geometric stiffness of the current
-    /// constraint forces, bordered by the constraint gradients (rows scaled by `s`).
-    pub fn static_tangent(&mut self, sys: &System, state: &State, load_factor: f64) -> Vec<f64> {
+    /// The static tangent at `state` over the EP layout, in compressed sparse columns (see
+    /// `NewtonMatrix::to_csc`): the stiffness of elements, springs and follower loads with
+    /// the geometric stiffness of the current constraint forces, bordered by the constraint
+    /// gradients (rows scaled by `s`).
+    pub fn static_tangent(
+        &mut self,
+        sys: &System,
+        state: &State,
+        load_factor: f64,
+    ) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
         let ctx = self.start_static(sys, state, load_factor);
         self.assemble(sys, &ctx, true);
-        self.matrix.to_dense().into_iter().flatten().collect()
+        self.matrix.to_csc()
     }
 
     /// The context of a static solve from `state`, with the unknowns at `state` (zero

@@ -234,33 +234,44 @@ impl Simulation {
     }
 
     /// Linearization about the current (static) state for modal analysis: the static tangent
-    /// K and the mass matrix M (dense, row-major, n × n over the EP layout), and a label per
-    /// unknown: `<node>.<x|y|z|rx|ry|rz>` (rotations material), `coord:<name>`, or
-    /// `row:<owner>.<k>` for constraint rows (no mass; they border K with the constraint
-    /// gradients).
-    pub fn linearize(&mut self) -> (usize, Vec<f64>, Vec<f64>, Vec<String>) {
+    /// K and the mass matrix M, sparse over the EP layout, and a label per unknown:
+    /// `<node>.<x|y|z|rx|ry|rz>` (rotations material), `coord:<name>`, or `row:<owner>.<k>`
+    /// for constraint rows (no mass; they border K with the constraint gradients).
+    pub fn linearize(&mut self) -> Linearization {
         assert!(self.is_static(), "linearization needs a static analysis");
         self.follow_contacts();
         let sys = &self.system;
         let lay = sys.layout;
-        let n = lay.n_unknowns();
         let lf = if self.load_factor > 0.0 {
             self.load_factor
         } else {
             1.0
         };
-        let k = self.integrator.static_tangent(sys, &self.state, lf);
-        let mut m = vec![0.0; n * n];
+        let stiffness = self.integrator.static_tangent(sys, &self.state, lf);
+        let mut mass = (Vec::new(), Vec::new(), Vec::new());
         for inertia in &sys.inertias {
             let d = lay.node_delta(inertia.node);
             for i in 0..3 {
-                m[(d + i) * n + d + i] += inertia.mass;
+                push_entry(&mut mass, d + i, d + i, inertia.mass);
                 for j in 0..3 {
-                    m[(d + 3 + i) * n + d + 3 + j] += inertia.inertia.0[i][j];
+                    push_entry(&mut mass, d + 3 + i, d + 3 + j, inertia.inertia.0[i][j]);
                 }
             }
         }
-        let mut labels = vec![String::new(); n];
+        Linearization {
+            n: lay.n_unknowns(),
+            stiffness,
+            mass,
+            labels: self.unknown_labels(),
+        }
+    }
+
+    /// A label per unknown of the EP layout: `<node>.<x|y|z|rx|ry|rz>`, `coord:<name>`,
+    /// `row:<owner>.<k>` (constraint rows).
+    fn unknown_labels(&self) -> Vec<String> {
+        let sys = &self.system;
+        let lay = sys.layout;
+        let mut labels = vec![String::new(); lay.n_unknowns()];
         const COMP: [&str; 6] = ["x", "y", "z", "rx", "ry", "rz"];
         for (a, name) in sys.node_names.iter().enumerate() {
             for (c, comp) in COMP.iter().enumerate() {
@@ -273,7 +284,7 @@ impl Simulation {
         for (r, (owner, k)) in sys.row_names.iter().enumerate() {
             labels[lay.mult(r)] = format!("row:{owner}.{k}");
         }
-        (n, k, m, labels)
+        labels
     }
 
     /// Load factor reached by a static analysis (0 before it starts, 1 when done).
@@ -561,4 +572,25 @@ fn check_redundancy(model: &Model, system: &System) -> Result<(), ModelErrors> {
         })
         .collect();
     Err(ModelErrors(errors))
+}
+
+/// A model linearized about a static state (see [`Simulation::linearize`]), sparse.
+pub struct Linearization {
+    /// Unknowns of the EP layout (node increments, coordinates, constraint rows).
+    pub n: usize,
+    /// The static tangent, bordered by the scaled constraint gradients: `(col_ptr, row_idx,
+    /// values)`, compressed sparse columns.
+    pub stiffness: (Vec<usize>, Vec<usize>, Vec<f64>),
+    /// The lumped mass matrix as `(rows, cols, values)` triplets (kg; kg·m² for rotations,
+    /// body-frame inertia on the material rotation increments).
+    pub mass: (Vec<usize>, Vec<usize>, Vec<f64>),
+    pub labels: Vec<String>,
+}
+
+fn push_entry(t: &mut (Vec<usize>, Vec<usize>, Vec<f64>), i: usize, j: usize, v: f64) {
+    if v != 0.0 {
+        t.0.push(i);
+        t.1.push(j);
+        t.2.push(v);
+    }
 }

@@ -340,6 +340,17 @@ impl NewtonMatrix {
         }
     }
 
+    /// The matrix in compressed sparse columns: `(col_ptr, row_idx, values)`, rows sorted
+    /// in each column (a copy, for linearizations handed out of the core).
+    pub fn to_csc(&self) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
+        let nnz = self.col_ptr[self.n];
+        (
+            self.col_ptr.clone(),
+            self.row_idx.clone(),
+            self.values[..nnz].to_vec(),
+        )
+    }
+
     /// Dense copy (for tests and diagnostics only).
     pub fn to_dense(&self) -> Vec<Vec<f64>> {
         let mut d = vec![vec![0.0; self.n]; self.n];
