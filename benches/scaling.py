@@ -1,0 +1,76 @@
+"""How cost grows with model size: a pinned beam pendulum of N cubic elements (N = 12 … 2000,
+up to 72 000 unknowns under ED), fixed steps, default Newton settings.
+
+python benches/scaling.py [N ...]
+
+Prints per N: unknowns, set-up time (model compilation, initial velocities), CPU per step,
+per step and unknown, and the growth factor per doubling of N (1.0× per unknown: linear).
+"""
+
+import sys
+import time
+
+import flexdyn as fd
+
+SECTION = {
+    "ea": 44e6,
+    "ga2": 2.8e6,
+    "ga3": 14e6,
+    "gj": 28e3,
+    "ei2": 300e3,
+    "ei3": 23e3,
+    "m": 1.6,
+    "i22": 1e-3,
+    "i33": 11e-3,
+}
+STEPS = 20
+
+
+def pendulum(elements, scheme):
+    m = fd.Model(f"beam pendulum {elements}", gravity=[0, -9.81, 0])
+    m.node("root", [0, 0, 0]).node("tip", [2.4, 0, 0])
+    m.rigid_body("tip_body", "tip", mass=40.0, inertia=[0.45, 0.225, 0.225])
+    m.beam(
+        "beam", start_node="root", end_node="tip", elements=elements, order=3, section=SECTION, e2=[0, 1, 0]
+    )
+    m.spherical("pin", "ground", "root", position=[0, 0, 0])
+    m.settings(scheme=scheme, step_control="fixed", dt=1e-3, t_end=STEPS * 1e-3)
+    return m
+
+
+def cpu_of_run(elements, scheme, steps):
+    model = pendulum(elements, scheme)
+    t0 = time.process_time()
+    res = fd.simulate(model, t_end=steps * 1e-3)
+    return time.process_time() - t0, res.attrs["stats"]["unknowns"]
+
+
+def measure(elements, scheme):
+    """(unknowns, set-up CPU, CPU per step): from runs of 1 and STEPS steps."""
+    one, _ = cpu_of_run(elements, scheme, 1)
+    many, unknowns = cpu_of_run(elements, scheme, STEPS)
+    per_step = (many - one) / (STEPS - 1)
+    return unknowns, one - per_step, per_step
+
+
+def main():
+    sizes = [int(a) for a in sys.argv[1:]] or [12, 125, 250, 500, 1000, 2000]
+    print(
+        f"{'N':>5} {'sch':>3} {'unknowns':>9} {'set-up s':>9} {'ms/step':>8} {'µs/step/unknown':>16} {'×/doubling':>11}"
+    )
+    for scheme in ("ep", "ed"):
+        previous = None
+        for n in sizes:
+            unknowns, setup, per_step = measure(n, scheme)
+            per_unknown = 1e6 * per_step / unknowns
+            growth = ""
+            if previous and n == 2 * previous[0]:
+                growth = f"{per_step / previous[1]:11.2f}"
+            print(
+                f"{n:5d} {scheme:>3} {unknowns:9d} {setup:9.2f} {1e3 * per_step:8.2f} {per_unknown:16.2f} {growth:>11}"
+            )
+            previous = (n, per_step)
+
+
+if __name__ == "__main__":
+    main()
