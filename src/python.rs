@@ -63,6 +63,24 @@ fn caught<T>(what: &str, f: impl FnOnce() -> T) -> Result<T, String> {
     })
 }
 
+/// A sparse matrix as three numpy arrays (compressed columns, or triplets).
+type SparseArrays<'py> = (
+    Bound<'py, PyArray1<usize>>,
+    Bound<'py, PyArray1<usize>>,
+    Bound<'py, PyArray1<f64>>,
+);
+
+fn sparse_arrays(
+    py: Python<'_>,
+    (a, b, v): (Vec<usize>, Vec<usize>, Vec<f64>),
+) -> SparseArrays<'_> {
+    (
+        PyArray1::from_vec(py, a),
+        PyArray1::from_vec(py, b),
+        PyArray1::from_vec(py, v),
+    )
+}
+
 /// Runs `f`, turning a Rust panic into `FlexdynError`: no panic crosses into Python as
 /// `PanicException`, which `except Exception` does not catch.
 fn guarded<T>(what: &str, f: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
@@ -201,16 +219,10 @@ impl PySimulation {
     /// Static analysis only, linearized about the current state (see
     /// `Simulation::linearize`): `(n, (k_indptr, k_indices, k_data), (m_rows, m_cols,
     /// m_data), labels)` — K in compressed sparse columns, M as triplets.
-    #[allow(clippy::type_complexity)]
     fn linearize<'py>(
         &mut self,
         py: Python<'py>,
-    ) -> PyResult<(
-        usize,
-        (Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<f64>>),
-        (Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<f64>>),
-        Vec<String>,
-    )> {
+    ) -> PyResult<(usize, SparseArrays<'py>, SparseArrays<'py>, Vec<String>)> {
         if !self.sim.is_static() {
             return Err(ModelError::new_err(
                 "linearize: the model's simulation.analysis must be \"static\"",
@@ -218,12 +230,10 @@ impl PySimulation {
         }
         let sim = &mut self.sim;
         let lin = guarded("linearizing", || Ok(sim.linearize()))?;
-        let (kp, ki, kv) = lin.stiffness;
-        let (mr, mc, mv) = lin.mass;
         Ok((
             lin.n,
-            (PyArray1::from_vec(py, kp), PyArray1::from_vec(py, ki), PyArray1::from_vec(py, kv)),
-            (PyArray1::from_vec(py, mr), PyArray1::from_vec(py, mc), PyArray1::from_vec(py, mv)),
+            sparse_arrays(py, lin.stiffness),
+            sparse_arrays(py, lin.mass),
             lin.labels,
         ))
     }
