@@ -12,25 +12,14 @@ import sys
 import time
 
 import numpy as np
+from beam_section import BEAM_SECTION
 
 import flexdyn as fd
-
-SECTION = {
-    "ea": 44e6,
-    "ga2": 2.8e6,
-    "ga3": 14e6,
-    "gj": 28e3,
-    "ei2": 300e3,
-    "ei3": 23e3,
-    "m": 1.6,
-    "i22": 1e-3,
-    "i33": 11e-3,
-}
 
 
 def cantilever(elements):
     m = fd.Model(f"cantilever {elements}", gravity=[0, 0, -9.81])
-    m.beam("b", [0, 0, 0], [10.0, 0, 0], elements=elements, order=3, section=SECTION)
+    m.beam("b", [0, 0, 0], [10.0, 0, 0], elements=elements, order=3, section=BEAM_SECTION)
     m.clamp("root", "ground", "b.0")
     return m
 

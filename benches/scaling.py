@@ -10,30 +10,15 @@ per step and unknown, and the growth factor per doubling of N (1.0× per unknown
 import sys
 import time
 
+from simulate import beam_pendulum
+
 import flexdyn as fd
 
-SECTION = {
-    "ea": 44e6,
-    "ga2": 2.8e6,
-    "ga3": 14e6,
-    "gj": 28e3,
-    "ei2": 300e3,
-    "ei3": 23e3,
-    "m": 1.6,
-    "i22": 1e-3,
-    "i33": 11e-3,
-}
 STEPS = 20
 
 
 def pendulum(elements, scheme):
-    m = fd.Model(f"beam pendulum {elements}", gravity=[0, -9.81, 0])
-    m.node("root", [0, 0, 0]).node("tip", [2.4, 0, 0])
-    m.rigid_body("tip_body", "tip", mass=40.0, inertia=[0.45, 0.225, 0.225])
-    m.beam(
-        "beam", start_node="root", end_node="tip", elements=elements, order=3, section=SECTION, e2=[0, 1, 0]
-    )
-    m.spherical("pin", "ground", "root", position=[0, 0, 0])
+    m = beam_pendulum(elements)
     m.settings(scheme=scheme, step_control="fixed", dt=1e-3, t_end=STEPS * 1e-3)
     return m
 

@@ -6,6 +6,8 @@ python benches/simulate.py            # the examples and a chain of pendulums, E
 import time
 from pathlib import Path
 
+from beam_section import BEAM_SECTION
+
 import flexdyn as fd
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -28,27 +30,20 @@ def chain(n, length=0.5):
     return m
 
 
-BEAM_SECTION = {
-    "ea": 44e6,
-    "ga2": 2.8e6,
-    "ga3": 14e6,
-    "gj": 28e3,
-    "ei2": 300e3,
-    "ei3": 23e3,
-    "m": 1.6,
-    "i22": 1e-3,
-    "i33": 11e-3,
-}
-
-
-def beam_pendulum():
-    """Issue 3's benchmark: 2.4 m beam of 12 cubic elements (the paper's beam section), pinned at
+def beam_pendulum(elements=12):
+    """Issue 3's benchmark: 2.4 m beam of `elements` cubic elements (12) (the paper's beam section), pinned at
     the root, 40 kg tip mass, released horizontally under gravity, 2 s."""
     m = fd.Model("beam pendulum", gravity=[0, -9.81, 0])
     m.node("root", [0, 0, 0]).node("tip", [2.4, 0, 0])
     m.rigid_body("tip_body", "tip", mass=40.0, inertia=[0.45, 0.225, 0.225])
     m.beam(
-        "beam", start_node="root", end_node="tip", elements=12, order=3, section=BEAM_SECTION, e2=[0, 1, 0]
+        "beam",
+        start_node="root",
+        end_node="tip",
+        elements=elements,
+        order=3,
+        section=BEAM_SECTION,
+        e2=[0, 1, 0],
     )
     m.spherical("pin", "ground", "root", position=[0, 0, 0])
     m.sensor("energy", "energy")

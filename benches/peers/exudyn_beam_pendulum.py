@@ -17,6 +17,7 @@ import itertools
 import json
 import sys
 import time
+from pathlib import Path
 
 import exudyn as exu
 import numpy as np
@@ -33,25 +34,17 @@ from exudyn.utilities import (
     eulerParameters0,
 )
 
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from beam_section import BEAM_SECTION
+
 LENGTH, T_END, SAMPLE = 2.4, 2.0, 0.01
-SECTION = {
-    "ea": 44e6,
-    "ga2": 2.8e6,
-    "ga3": 14e6,
-    "gj": 28e3,
-    "ei2": 300e3,
-    "ei3": 23e3,
-    "m": 1.6,
-    "i22": 1e-3,
-    "i33": 11e-3,
-}
 TIP_MASS, TIP_INERTIA, G = 40.0, [0.45, 0.225, 0.225], 9.81
 
 
 def build(elements):
     sc = exu.SystemContainer()
     mbs = sc.AddSystem()
-    s = SECTION
+    s = BEAM_SECTION
     section = exu.BeamSection()
     # Exudyn's beam axis is local x, the section spanned by local y (flexdyn's axis 2, here
     # the vertical) and z: stiffness [EA, GA_y, GA_z, GJ, EI_y, EI_z].
