@@ -36,18 +36,18 @@ pub(super) fn evaluate(
 ) {
     let out = (res, vals, pos);
     if ctx.ed() {
-        chained::<{ GEO + 6 }, U_GROUPS, Q_GROUPS, P_GROUPS>(el, ctx, y, out, [0, 1, 2, 3, 4]);
+        chained::<{ GEO + 6 }, U_GROUPS, Q_GROUPS, P_GROUPS, 4>(el, ctx, y, out, [0, 1, 2, 3, 4]);
     } else if ctx.is_static() {
-        chained::<GEO, 2, 2, 3>(el, ctx, y, out, [0, 2]);
+        chained::<GEO, 2, 2, 3, 2>(el, ctx, y, out, [0, 2]);
     } else {
-        chained::<GEO, 2, 2, 3>(el, ctx, y, out, [0, 1]);
+        chained::<GEO, 2, 2, 3, 2>(el, ctx, y, out, [0, 1]);
     }
 }
 
 /// [`evaluate`] with `N` dual directions per point, the row quantities `active` (`NU`), `NQ`
-/// node quantities and `NP` point inputs: the working arrays are no larger than the mode
-/// needs (they are zeroed on every call).
-fn chained<const N: usize, const NU: usize, const NQ: usize, const NP: usize>(
+/// node quantities, `NP` point inputs and `NY` unknown groups per node: the working arrays
+/// are no larger than the mode needs (they are zeroed on every call).
+fn chained<const N: usize, const NU: usize, const NQ: usize, const NP: usize, const NY: usize>(
     el: &BeamElement,
     ctx: &StepCtx,
     y: &[f64],
@@ -100,12 +100,12 @@ fn chained<const N: usize, const NU: usize, const NQ: usize, const NP: usize>(
     }
     let nodal = NodalMaps::new(el, ctx, yl, &u);
     let per = n / nn;
-    let groups = per / 3;
+    debug_assert_eq!(per, 3 * NY);
     for a in 0..nn {
         for b in 0..nn {
-            let k = nodal.block(a, b, &gab[a][b], &active);
-            for (rg, row) in k.iter().enumerate().take(groups) {
-                for (yg, blk) in row.iter().enumerate().take(groups) {
+            let k = nodal.block::<NU, NQ, NY>(a, b, &gab[a][b], &active);
+            for (rg, row) in k.iter().enumerate() {
+                for (yg, blk) in row.iter().enumerate() {
                     for i in 0..3 {
                         let r = (per * a + 3 * rg + i) * n + per * b + 3 * yg;
                         for j in 0..3 {
@@ -197,6 +197,7 @@ fn velocity_columns<const N: usize>(
 struct NodalMaps {
     /// `Q[b][qg][yg]` (zero blocks skipped by `q_used`).
     q: [[[B3; 4]; Q_GROUPS]; MAX_NODES],
+    q_used: [[[bool; 4]; Q_GROUPS]; MAX_NODES],
     /// `R_iᵀ`, `R_fᵀ` per node.
     ri_t: [B3; MAX_NODES],
     rf_t: [B3; MAX_NODES],
@@ -217,6 +218,7 @@ impl NodalMaps {
         let per = if ed { 12 } else { 6 };
         let mut m = NodalMaps {
             q: [[[B3::zero(); 4]; Q_GROUPS]; MAX_NODES],
+            q_used: [[[false; 4]; Q_GROUPS]; MAX_NODES],
             ri_t: [B3::identity(); MAX_NODES],
             rf_t: [B3::identity(); MAX_NODES],
             diag: [B3::zero(); MAX_NODES],
@@ -246,32 +248,37 @@ impl NodalMaps {
                 q[5][1] = ri.mul_m(&(id.scale_f(2.0 * inv_h) + cay.mul_m(&wj.tilde()).mul_m(&t)));
                 q[5][3] = ri.mul_m(&cay).scale_f(-inv_h);
             }
+            for (used, q) in m.q_used[b].iter_mut().zip(&m.q[b]) {
+                for (u, blk) in used.iter_mut().zip(q) {
+                    *u = nonzero(blk);
+                }
+            }
         }
         m
     }
 
-    /// The 3×3 blocks `[row group][unknown group]` of `∂rows^a/∂y^b` from `G = ∂u^a/∂q^b`.
-    fn block<const NU: usize, const NQ: usize>(
+    /// The 3×3 blocks `[row group][unknown group]` of `∂rows^a/∂y^b` from `G = ∂u^a/∂q^b`
+    /// (`NY` groups: 2 for EP and statics, 4 for ED).
+    fn block<const NU: usize, const NQ: usize, const NY: usize>(
         &self,
         a: usize,
         b: usize,
         g: &[[B3; NQ]; NU],
         active: &[usize; NU],
-    ) -> [[B3; 4]; 4] {
-        let n_y = if self.ed { 4 } else { 2 };
+    ) -> [[B3; NY]; NY] {
         // GQ[ug][yg] = Σ_qg G[ug][qg] Q^b[qg][yg].
-        let mut gq = [[B3::zero(); 4]; U_GROUPS];
+        let mut gq = [[B3::zero(); NY]; U_GROUPS];
         for (gk, &ug) in g.iter().zip(active) {
             for (qg, gblk) in gk.iter().enumerate() {
-                for yg in 0..n_y {
-                    if nonzero(&self.q[b][qg][yg]) {
+                for yg in 0..NY {
+                    if self.q_used[b][qg][yg] {
                         gq[ug][yg] = gq[ug][yg] + gblk.mul_m(&self.q[b][qg][yg]);
                     }
                 }
             }
         }
-        let mut k = [[B3::zero(); 4]; 4];
-        for yg in 0..n_y {
+        let mut k = [[B3::zero(); NY]; NY];
+        for yg in 0..NY {
             k[0][yg] = gq[0][yg];
             k[1][yg] = self.ri_t[a].mul_m(&gq[1][yg]);
             if self.at_f {

@@ -14,10 +14,15 @@
 //!
 //! Rotation columns are spatial (`R_f = cay(ρ) R_i`); the unknowns are material (`ρ = R_i r`),
 //! so forces on them are `R_iᵀ g` (or `R_fᵀ g` for operators evaluated at f).
+//!
+//! The equations are linear in the multipliers and the jump velocities, with coefficients that
+//! depend on the geometry alone. [`evaluate_constraint`] uses that: one dual-number pass over
+//! the geometric unknowns (a node's 6 increments, the coordinates), and the columns of the
+//! multipliers and jumps in closed form from the same pass's values ([`add_linear_columns`]).
 
 use super::MAX_ROWS;
-use crate::elements::{add3, v3, StepCtx};
-use crate::scalar::Real;
+use crate::elements::{add3, eval_kernel, v3, Kernel, StepCtx};
+use crate::scalar::{Dual, Real};
 use crate::vec3::{M3, V3};
 
 /// Gradient rows over `NC` columns.
@@ -200,6 +205,224 @@ pub fn add_constraint_equations<T: Real, const NC: usize>(
     map.apply_rate(ctx, b_f, y, At::End, &mut cf);
     for r in 0..n {
         res[map.mult + 2 * r + 1] += (ci[r] - cf[r]) * (ctx.s * ctx.h);
+    }
+}
+
+/// A kernel whose residual is [`add_constraint_equations`] of one constraint (or of one share
+/// of it) over `NC` gradient columns.
+pub trait StepEquations<const NC: usize>: Kernel + Sized {
+    /// Local slots of the unknowns the geometry depends on (node increments `[Δx, r]`,
+    /// coordinate increments) into `out`; returns how many (at most `NC`).
+    fn geometric_slots(&self, ctx: &StepCtx, out: &mut [usize; NC]) -> usize;
+    /// Calls `f` with the constraint's column map and step terms at the local unknowns `y`.
+    fn with_equations<T: Real, R>(
+        &self,
+        ctx: &StepCtx,
+        y: &[T],
+        f: impl FnOnce(&ColumnMap<T>, &ConstraintTerms<T, NC>) -> R,
+    ) -> R;
+
+    /// The residual: the step equations at `y`.
+    fn equations_residual<T: Real>(&self, ctx: &StepCtx, y: &[T], res: &mut [T]) {
+        self.with_equations(ctx, y, |map, terms| {
+            add_constraint_equations(ctx, map, terms, y, res)
+        })
+    }
+}
+
+/// Largest local block [`evaluate_constraint`] differentiates by the split (a two-node screw
+/// joint under ED: 2×12 + 2×2 + 2×7 = 42).
+const MAX_SPLIT_LOCAL: usize = 44;
+
+/// Residual and exact tangent of a constraint kernel: a dual pass of width ≥ the number of
+/// geometric unknowns (6 for a joint to the ground, 12–14 between two nodes) instead of
+/// `⌈n/8⌉` passes over all `n` unknowns (3 for an EP revolute joint, 5 under ED).
+pub fn evaluate_constraint<K: StepEquations<NC>, const NC: usize>(
+    k: &K,
+    ctx: &StepCtx,
+    y: &[f64],
+    res: &mut [f64],
+    jac: Option<(&mut [f64], &[usize])>,
+) {
+    let Some((vals, pos)) = jac else {
+        return eval_kernel(k, ctx, y, res, None);
+    };
+    if k.unknowns().len() > MAX_SPLIT_LOCAL {
+        return eval_kernel(k, ctx, y, res, Some((vals, pos)));
+    }
+    let mut slots = [0usize; NC];
+    let g = k.geometric_slots(ctx, &mut slots);
+    let slots = &slots[..g];
+    let small = k.unknowns().len() <= 24;
+    let out = (res, vals, pos);
+    // Widths and buffers no larger than needed: dual buffers are zeroed on every call.
+    match (g, small) {
+        (0..=6, true) => split_pass::<K, NC, 6, 24>(k, ctx, y, out, slots),
+        (0..=6, false) => split_pass::<K, NC, 6, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots),
+        (7, _) => split_pass::<K, NC, 7, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots),
+        (8..=12, true) => split_pass::<K, NC, 12, 24>(k, ctx, y, out, slots),
+        (8..=12, false) => split_pass::<K, NC, 12, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots),
+        (13, true) => split_pass::<K, NC, 13, 24>(k, ctx, y, out, slots),
+        (13, false) => split_pass::<K, NC, 13, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots),
+        _ => split_pass::<K, NC, 14, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots),
+    }
+}
+
+/// One dual pass of width `W` seeded on `slots` (buffers of `M` ≥ n entries), then the
+/// linear columns.
+fn split_pass<K: StepEquations<NC>, const NC: usize, const W: usize, const M: usize>(
+    k: &K,
+    ctx: &StepCtx,
+    y: &[f64],
+    (res, vals, pos): (&mut [f64], &mut [f64], &[usize]),
+    slots: &[usize],
+) {
+    assert!(
+        slots.len() <= W,
+        "more geometric unknowns than dual directions"
+    );
+    let idx = k.unknowns();
+    let n = idx.len();
+    let mut yd = [Dual::<W>::constant(0.0); M];
+    for (l, &g) in idx.iter().enumerate() {
+        yd[l].re = y[g];
+    }
+    for (d, &l) in slots.iter().enumerate() {
+        yd[l].du[d] = 1.0;
+    }
+    let mut rd = [Dual::<W>::constant(0.0); M];
+    let (yd, rd) = (&yd[..n], &mut rd[..n]);
+    k.with_equations(ctx, yd, |map, terms| {
+        add_constraint_equations(ctx, map, terms, yd, rd);
+        let mut nodes = [NodeColumns {
+            col: 0,
+            delta: 0,
+            jump: None,
+            r_i: M3::identity(),
+            r_f: M3::identity(),
+        }; MAX_MAP_NODES];
+        let nn = map.nodes.len();
+        assert!(
+            nn <= MAX_MAP_NODES,
+            "the split differentiates two-node maps"
+        );
+        for (v, m) in nodes.iter_mut().zip(map.nodes) {
+            *v = m.values();
+        }
+        let map_re = ColumnMap {
+            nodes: &nodes[..nn],
+            coords: map.coords,
+            mult: map.mult,
+            n_rows: map.n_rows,
+        };
+        let b = grad_values(terms.b);
+        let rates = terms
+            .rates
+            .map(|(bi, bf)| (grad_values(bi), grad_values(bf)));
+        let terms_re = ConstraintTerms {
+            c_f: &[],
+            b: &b,
+            rates: rates.as_ref().map(|(bi, bf)| (bi, bf)),
+        };
+        add_linear_columns(ctx, &map_re, &terms_re, n, vals, pos);
+    });
+    for (i, r) in rd.iter().enumerate() {
+        res[idx[i]] += r.re;
+        for (d, &l) in slots.iter().enumerate() {
+            vals[pos[i * n + l]] += r.du[d];
+        }
+    }
+}
+
+/// Most node blocks in the map of a kernel differentiated by the split (two nodes).
+const MAX_MAP_NODES: usize = 2;
+
+impl<T: Real> NodeColumns<T> {
+    fn values(&self) -> NodeColumns<f64> {
+        NodeColumns {
+            col: self.col,
+            delta: self.delta,
+            jump: self.jump,
+            r_i: self.r_i.re(),
+            r_f: self.r_f.re(),
+        }
+    }
+}
+
+fn grad_values<T: Real, const NC: usize>(b: &Grad<T, NC>) -> Grad<f64, NC> {
+    let mut out = [[0.0; NC]; MAX_ROWS];
+    for (o, row) in out.iter_mut().zip(b) {
+        for (v, x) in o.iter_mut().zip(row) {
+            *v = x.re();
+        }
+    }
+    out
+}
+
+impl ColumnMap<'_, f64> {
+    /// Calls `f(slot, value)` for each local unknown a gradient row acts on, mapped as the
+    /// forces `Bᵀλ` are: a node's force columns as they are, its moment columns through `Rᵀ`
+    /// of the start or end triad, the coordinates'; on the momentum rows (`delta`, the
+    /// coordinate increment) or, with `jump`, the jump rows.
+    fn for_each_entry<const NC: usize>(
+        &self,
+        row: &[f64; NC],
+        at: At,
+        jump: bool,
+        mut f: impl FnMut(usize, f64),
+    ) {
+        for n in self.nodes {
+            let Some(s) = (if jump { n.jump } else { Some(n.delta) }) else {
+                continue;
+            };
+            let rot = if at == At::Start { &n.r_i } else { &n.r_f };
+            let moment = rot.tmul_v(&v3(row, n.col + 3));
+            for c in 0..3 {
+                f(s + c, row[n.col + c]);
+                f(s + 3 + c, moment.0[c]);
+            }
+        }
+        for c in self.coords {
+            f(c.slot + usize::from(jump), row[c.col]);
+        }
+    }
+}
+
+/// The tangent columns of the multipliers λ (and under ED λ_d and the jump velocities) of
+/// [`add_constraint_equations`], which is linear in them: `s B^Dᵀ` on the momentum rows;
+/// `(s/12)(B_f − B_i)ᵀ` and `−(s/12)(B_i + B_f)ᵀ` for λ_d; `s (B_i + B_f)` on the j-condition's
+/// jump columns (its `h` cancels the velocities' `1/h`). `vals[pos[row * n + col]]`.
+pub fn add_linear_columns<const NC: usize>(
+    ctx: &StepCtx,
+    map: &ColumnMap<f64>,
+    terms: &ConstraintTerms<f64, NC>,
+    n: usize,
+    vals: &mut [f64],
+    pos: &[usize],
+) {
+    let s = ctx.s;
+    let per = ColumnMap::<f64>::per(ctx);
+    let at = if ctx.is_static() { At::End } else { At::Start };
+    let mut put = |row: usize, col: usize, v: f64| vals[pos[row * n + col]] += v;
+    for r in 0..map.n_rows {
+        let lam = map.mult + per * r;
+        map.for_each_entry(&terms.b[r], at, false, |slot, v| put(slot, lam, s * v));
+        let Some((b_i, b_f)) = terms.rates else {
+            continue;
+        };
+        let (lam_d, q) = (lam + 1, s / 12.0);
+        map.for_each_entry(&b_f[r], At::End, false, |slot, v| put(slot, lam_d, q * v));
+        map.for_each_entry(&b_i[r], At::Start, false, |slot, v| {
+            put(slot, lam_d, -q * v)
+        });
+        map.for_each_entry(&b_i[r], At::Start, true, |slot, v| {
+            put(slot, lam_d, -q * v);
+            put(lam_d, slot, s * v);
+        });
+        map.for_each_entry(&b_f[r], At::End, true, |slot, v| {
+            put(slot, lam_d, -q * v);
+            put(lam_d, slot, s * v);
+        });
     }
 }
 

@@ -76,9 +76,10 @@ pub fn dot_mid<T: Real>(
     alpha: usize,
     beta: usize,
 ) -> (V3<T>, T) {
-    let ek = (unit(si, 0, &at[0], alpha) + unit(sf, 0, &at[0], alpha)).scale_f(0.5);
-    let el = (unit(si, 1, &at[1], beta) + unit(sf, 1, &at[1], beta)).scale_f(0.5);
-    let gm = (dot_value(si, at, alpha, beta) + dot_value(sf, at, alpha, beta)) * 0.5;
+    let (eki, ekf) = (unit(si, 0, &at[0], alpha), unit(sf, 0, &at[0], alpha));
+    let (eli, elf) = (unit(si, 1, &at[1], beta), unit(sf, 1, &at[1], beta));
+    let gm = (eki.dot(&eli) + ekf.dot(&elf)) * 0.5;
+    let (ek, el) = ((eki + ekf).scale_f(0.5), (eli + elf).scale_f(0.5));
     (ek.cross(&el), gm)
 }
 

@@ -27,7 +27,7 @@ use crate::rotation::cayley;
 use crate::scalar::Real;
 use crate::system::layout::Layout;
 use crate::vec3::{M3, V3};
-use equations::{add_constraint_equations, ColumnMap, ConstraintTerms, CoordColumn, NodeColumns};
+use equations::{ColumnMap, ConstraintTerms, CoordColumn, NodeColumns, StepEquations};
 
 /// Most constraint rows of one joint (the screw joint's 7).
 pub const MAX_ROWS: usize = 8;
@@ -562,6 +562,42 @@ impl Kernel for JointKernel {
     }
 
     fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], res: &mut [T]) {
+        self.equations_residual(ctx, y, res)
+    }
+
+    fn evaluate(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        res: &mut [f64],
+        jac: Option<(&mut [f64], &[usize])>,
+    ) {
+        equations::evaluate_constraint(self, ctx, y, res, jac)
+    }
+}
+
+impl StepEquations<NCOL> for JointKernel {
+    fn geometric_slots(&self, ctx: &StepCtx, out: &mut [usize; NCOL]) -> usize {
+        let mut g = 0;
+        for d in self.slots.iter().filter_map(|s| s.delta) {
+            for c in 0..6 {
+                out[g] = d + c;
+                g += 1;
+            }
+        }
+        for c in 0..self.coords.len() {
+            out[g] = self.coord_slot + Self::per(ctx) * c;
+            g += 1;
+        }
+        g
+    }
+
+    fn with_equations<T: Real, R>(
+        &self,
+        ctx: &StepCtx,
+        y: &[T],
+        f: impl FnOnce(&ColumnMap<T>, &ConstraintTerms<T, NCOL>) -> R,
+    ) -> R {
         let n = self.n_rows();
         let si = self.state_i::<T>(ctx);
         let (sf, _) = self.state_f(ctx, &si, y);
@@ -580,18 +616,27 @@ impl Kernel for JointKernel {
         } else {
             self.law.discrete_gradient(&si, &sf, &mut b);
         }
-        let (mut b_i, mut b_f) = (zero_rows::<T>(), zero_rows::<T>());
+        // Only ED needs the rate operators (buffers of duals are costly to zero).
         let rates = ctx.ed().then(|| {
-            self.law.rate(&si, &mut b_i);
+            // B(q_i) is a constant of the step: evaluated in f64.
+            let mut bi = zero_rows::<f64>();
+            self.law.rate(&self.state_i::<f64>(ctx), &mut bi);
+            let mut b_i = zero_rows::<T>();
+            for (row, src) in b_i.iter_mut().zip(&bi).take(n) {
+                for (v, x) in row.iter_mut().zip(src) {
+                    *v = T::cst(*x);
+                }
+            }
+            let mut b_f = zero_rows::<T>();
             self.law.rate(&sf, &mut b_f);
-            (&b_i, &b_f)
+            (b_i, b_f)
         });
         let terms = ConstraintTerms {
             c_f: &c[..n],
             b: &b,
-            rates,
+            rates: rates.as_ref().map(|(b_i, b_f)| (b_i, b_f)),
         };
-        add_constraint_equations(ctx, &map, &terms, y, res);
+        f(&map, &terms)
     }
 }
 
