@@ -197,13 +197,55 @@ impl Kernel for NodeShare<'_> {
     }
 
     fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], res: &mut [T]) {
+        self.equations_residual(ctx, y, res)
+    }
+
+    fn evaluate(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        res: &mut [f64],
+        jac: Option<(&mut [f64], &[usize])>,
+    ) {
+        evaluate_constraint(self, ctx, y, res, jac)
+    }
+}
+
+impl NodeShare<'_> {
+    /// Local slots: the node's `[Δx, r]` (and jumps), the follower's, ζ, the multipliers.
+    fn slots(&self, ctx: &StepCtx) -> (Option<usize>, usize, usize) {
+        let per = self.joint.per();
+        let fol_slot = self.joint.follower_slot.map(|_| 6 * per);
+        let coord_slot = 6 * per * (1 + usize::from(fol_slot.is_some()));
+        debug_assert_eq!(per, if ctx.ed() { 2 } else { 1 });
+        (fol_slot, coord_slot, coord_slot + per)
+    }
+}
+
+impl StepEquations<SHARE_NC> for NodeShare<'_> {
+    fn geometric_slots(&self, ctx: &StepCtx, out: &mut [usize; SHARE_NC]) -> usize {
+        let (fol_slot, coord_slot, _) = self.slots(ctx);
+        let mut g = 0;
+        for d in std::iter::once(0).chain(fol_slot) {
+            for c in 0..6 {
+                out[g] = d + c;
+                g += 1;
+            }
+        }
+        out[g] = coord_slot;
+        g + 1
+    }
+
+    fn with_equations<T: Real, R>(
+        &self,
+        ctx: &StepCtx,
+        y: &[T],
+        f: impl FnOnce(&ColumnMap<T>, &ConstraintTerms<T, SHARE_NC>) -> R,
+    ) -> R {
         let joint = self.joint;
-        let per = joint.per();
         let n = joint.n_rows();
         let node_slot = 0;
-        let fol_slot = joint.follower_slot.map(|_| 6 * per);
-        let coord_slot = 6 * per * (1 + usize::from(fol_slot.is_some()));
-        let mult_slot = coord_slot + per;
+        let (fol_slot, coord_slot, mult_slot) = self.slots(ctx);
         let zf = T::cst(ctx.state.coords[joint.coord]) + y[coord_slot];
         let w = joint.window_weights(ctx, zf);
         let side = Side::Node(joint.beam_nodes[joint.first_node() + self.j]);
@@ -251,7 +293,7 @@ impl Kernel for NodeShare<'_> {
             b: &share.b,
             rates,
         };
-        add_constraint_equations(ctx, &map, &terms, y, res);
+        f(&map, &terms)
     }
 }
 
