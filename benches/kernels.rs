@@ -71,9 +71,17 @@ fn newton_iteration(c: &mut Criterion) {
             c.bench_function(&name, |b| {
                 b.iter(|| integ.assemble(&sim.system, &ctx, true))
             });
+            // A modified-Newton iteration with kept factors: residual only, back-substitution.
+            let name = format!("residual/{label}_{scheme:?}").to_lowercase();
+            c.bench_function(&name, |b| {
+                b.iter(|| integ.assemble(&sim.system, &ctx, false))
+            });
             let name = format!("factorization/{label}_{scheme:?}").to_lowercase();
             integ.assemble(&sim.system, &ctx, true);
             c.bench_function(&name, |b| b.iter(|| integ.matrix.factor().unwrap()));
+            let name = format!("solve/{label}_{scheme:?}").to_lowercase();
+            let mut rhs = vec![1.0; sim.system.layout.n_unknowns()];
+            c.bench_function(&name, |b| b.iter(|| integ.matrix.solve(&mut rhs)));
         }
     }
 }
