@@ -1,0 +1,57 @@
+"""ED's cost per step against EP's at equal fixed step size (issue 17, item 2).
+
+    python benches/ed_vs_ep.py [--repeats 3] [--dt 1e-3] [--t-end 1.0]
+
+Runs each example with both schemes at the same fixed step and default Newton (modified
+Newton, kept factors), interleaved, and prints the median process CPU per step, the Newton
+iterations, factorizations and back-substitutions per step, and the ED/EP ratio.
+"""
+
+import argparse
+import statistics
+import time
+from pathlib import Path
+
+import flexdyn as fd
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+MODELS = ("beam_pendulum", "free_collar", "four_bar")
+
+
+def run(model: str, scheme: str, dt: float, t_end: float) -> tuple[float, dict]:
+    m = fd.load(EXAMPLES / f"{model}.yaml")
+    m.settings(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end)
+    start = time.process_time()
+    res = fd.simulate(m)
+    return time.process_time() - start, res.attrs["stats"]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--dt", type=float, default=1e-3)
+    ap.add_argument("--t-end", type=float, default=1.0)
+    args = ap.parse_args()
+    print(f"fixed h = {args.dt} s, {args.t_end} s simulated, median of {args.repeats}")
+    print("| model | scheme | µs per step | iterations | factorizations | solves | ED/EP |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for model in MODELS:
+        times: dict[str, list[float]] = {"ep": [], "ed": []}
+        stats: dict[str, dict] = {}
+        for _ in range(args.repeats):
+            for scheme in ("ep", "ed"):
+                cpu, stats[scheme] = run(model, scheme, args.dt, args.t_end)
+                times[scheme].append(cpu)
+        per_step = {s: statistics.median(times[s]) / stats[s]["steps"] for s in times}
+        for scheme in ("ep", "ed"):
+            st, n = stats[scheme], stats[scheme]["steps"]
+            ratio = f"{per_step['ed'] / per_step['ep']:.2f}" if scheme == "ed" else ""
+            print(
+                f"| {model} | {scheme.upper()} | {1e6 * per_step[scheme]:.0f} "
+                f"| {st['newton_iterations'] / n:.2f} | {st['factorizations'] / n:.2f} "
+                f"| {st['linear_solves'] / n:.2f} | {ratio} |"
+            )
+
+
+if __name__ == "__main__":
+    main()
