@@ -460,7 +460,7 @@ impl Simulation {
 
     fn update_stats(&mut self) {
         self.stats.newton_iterations = self.integrator.total_iterations;
-        self.stats.factorizations = self.integrator.matrix.numeric_factorizations;
+        self.stats.factorizations = self.integrator.factorizations();
         self.stats.linear_solves = self.integrator.solves;
         self.stats.orderings = self.integrator.matrix.orderings;
         self.stats.pattern_misses = self.integrator.pattern_misses;

@@ -80,6 +80,42 @@ impl Layout {
     pub fn n_unknowns(&self) -> usize {
         self.per() * (6 * self.n_nodes + self.n_coords + self.n_rows)
     }
+    /// ED's unknowns come in pairs stored side by side: a node component's increment and
+    /// jump, a coordinate's increment and jump, a row's λ and λ_d (and so do its rows: the
+    /// f- and j-equations, `C_f` and the j-condition). `pair(i)` is unknown `i`'s pair in an
+    /// EP-sized numbering (`0..n_pairs()`, nodes, coordinates, then rows) and whether it is
+    /// the pair's second (jump) member.
+    #[inline]
+    pub fn pair(&self, i: usize) -> (usize, bool) {
+        debug_assert!(self.ed());
+        let nn = 12 * self.n_nodes;
+        if i < nn {
+            (6 * (i / 12) + i % 6, i % 12 >= 6)
+        } else {
+            (6 * self.n_nodes + (i - nn) / 2, (i - nn) % 2 == 1)
+        }
+    }
+    /// The two unknowns of pair `p` (inverse of [`Layout::pair`]).
+    #[inline]
+    pub fn unpair(&self, p: usize) -> (usize, usize) {
+        debug_assert!(self.ed());
+        let np = 6 * self.n_nodes;
+        if p < np {
+            let first = 12 * (p / 6) + p % 6;
+            (first, first + 6)
+        } else {
+            let first = 12 * self.n_nodes + 2 * (p - np);
+            (first, first + 1)
+        }
+    }
+    pub fn n_pairs(&self) -> usize {
+        6 * self.n_nodes + self.n_coords + self.n_rows
+    }
+    /// Whether pair `p` is a constraint row's (λ, λ_d) rather than a motion's.
+    #[inline]
+    pub fn pair_is_multiplier(&self, p: usize) -> bool {
+        p >= 6 * self.n_nodes + self.n_coords
+    }
     pub fn owner(&self, i: usize) -> RowOwner {
         let p = self.per();
         let nn = 6 * p * self.n_nodes;
@@ -164,5 +200,34 @@ mod tests {
             }
             assert!(seen.iter().all(|&s| s));
         }
+    }
+
+    #[test]
+    fn ed_unknowns_pair_up_increment_with_jump() {
+        let l = Layout::new(Scheme::Ed, 3, 2, 5);
+        assert_eq!(l.n_pairs(), 18 + 2 + 5);
+        let mut seen = vec![0; l.n_pairs()];
+        for i in 0..l.n_unknowns() {
+            let (p, second) = l.pair(i);
+            seen[p] += 1;
+            let (a, b) = l.unpair(p);
+            assert_eq!(if second { b } else { a }, i);
+            // The second member is the jump of the first's quantity.
+            let expected_second = matches!(
+                l.owner(i),
+                RowOwner::NodeJump { .. }
+                    | RowOwner::CoordJump { .. }
+                    | RowOwner::ConstraintRate { .. }
+            );
+            assert_eq!(second, expected_second, "unknown {i}");
+            let mult = matches!(
+                l.owner(i),
+                RowOwner::Constraint { .. } | RowOwner::ConstraintRate { .. }
+            );
+            assert_eq!(l.pair_is_multiplier(p), mult);
+        }
+        assert!(seen.iter().all(|&c| c == 2));
+        assert_eq!(l.pair(l.node_jump(1) + 4), (10, true));
+        assert_eq!(l.pair(l.mult_jump(2)), (18 + 2 + 2, true));
     }
 }

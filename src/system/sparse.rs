@@ -22,12 +22,18 @@ use faer::sparse::linalg::lu::supernodal::{
 };
 use faer::sparse::linalg::{colamd, qr, SymbolicSupernodalParams};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::traits::ComplexField;
 use faer::{Conj, MatMut, Par};
+
+/// The scalars a Newton matrix holds: `f64`, or `faer::c64` for ED's decoupled complex
+/// system (`integrator::ed_decoupled`).
+pub trait Entry: ComplexField + Copy + Default {}
+impl<T: ComplexField + Copy + Default> Entry for T {}
 
 /// Systems with at least this many unknowns use the supernodal LU.
 pub const SUPERNODAL_FROM: usize = 150;
 
-enum Backend {
+enum Backend<T: Entry> {
     /// Simplicial LU in a fixed column order (reverse Cuthill–McKee) and its inverse; the row
     /// permutation is the pivoting of the last factorization.
     Simplicial {
@@ -35,43 +41,43 @@ enum Backend {
         col_perm_inv: Vec<usize>,
         row_perm: Vec<usize>,
         row_perm_inv: Vec<usize>,
-        lu: SimplicialLu<usize, f64>,
+        lu: SimplicialLu<usize, T>,
     },
     /// faer's supernodal LU: symbolic analysis (COLAMD order, supernodes) once per pattern.
-    Supernodal(Box<Supernodal>),
+    Supernodal(Box<Supernodal<T>>),
 }
 
 /// The supernodal LU with everything that depends only on the pattern computed once: the
 /// column order, the supernodal structure, and the pattern of Aᵀ (which the numeric
 /// factorization reads alongside A) with the position in A of each of its entries, so that a
 /// refactorization only gathers values (no transpose, no pattern checks).
-struct Supernodal {
+struct Supernodal<T: Entry> {
     symbolic: SymbolicSupernodalLu<usize>,
     col_perm: Vec<usize>,
     col_perm_inv: Vec<usize>,
     row_perm: Vec<usize>,
     row_perm_inv: Vec<usize>,
-    lu: SupernodalLu<usize, f64>,
+    lu: SupernodalLu<usize, T>,
     t_col_ptr: Vec<usize>,
     t_row_idx: Vec<usize>,
     /// `t_values[p] = values[t_source[p]]`.
     t_source: Vec<usize>,
-    t_values: Vec<f64>,
+    t_values: Vec<T>,
 }
 
-pub struct NewtonMatrix {
+pub struct NewtonMatrix<T: Entry = f64> {
     n: usize,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
-    pub values: Vec<f64>,
-    backend: Backend,
+    pub values: Vec<T>,
+    backend: Backend<T>,
     scratch: MemBuffer,
     pub numeric_factorizations: usize,
     /// Fill-reducing orderings computed (once per sparsity pattern).
     pub orderings: usize,
 }
 
-impl NewtonMatrix {
+impl<T: Entry> NewtonMatrix<T> {
     /// Pattern from local blocks (each a list of global indices, with an optional row-major
     /// mask of its structurally nonzero entries); returns the matrix and, per block, the value
     /// positions of its `n × n` entries. Masked-out entries point at a trailing slot that the
@@ -126,12 +132,18 @@ impl NewtonMatrix {
                 p
             })
             .collect();
+        (Self::from_pattern(n, col_ptr, row_idx), positions)
+    }
+
+    /// A matrix of the given pattern (rows sorted and unique in each column, every diagonal
+    /// entry present), all values zero, with its factorization analysed.
+    pub fn from_pattern(n: usize, col_ptr: Vec<usize>, row_idx: Vec<usize>) -> Self {
         let nnz = row_idx.len();
         let mut m = NewtonMatrix {
             n,
             col_ptr,
             row_idx,
-            values: vec![0.0; nnz + 1],
+            values: vec![T::default(); nnz + 1],
             // Replaced just below by the backend for this size.
             backend: Backend::Simplicial {
                 col_perm: vec![],
@@ -147,31 +159,27 @@ impl NewtonMatrix {
         if n >= SUPERNODAL_FROM {
             m.use_supernodal();
         } else {
-            m.use_simplicial_with(&cols);
+            m.use_simplicial();
         }
-        (m, positions)
+        m
     }
 
     /// Switches to the simplicial LU in reverse Cuthill–McKee order. Multibody systems are
     /// chains and trees of small blocks, so a narrow band keeps partial pivoting from filling
     /// the factors (64-link chain under ED: 67k factor entries with RCM, 324k with AMD).
     pub fn use_simplicial(&mut self) {
-        let cols: Vec<Vec<usize>> = (0..self.n)
-            .map(|j| self.row_idx[self.col_ptr[j]..self.col_ptr[j + 1]].to_vec())
-            .collect();
-        self.use_simplicial_with(&cols);
-    }
-
-    fn use_simplicial_with(&mut self, cols: &[Vec<usize>]) {
         let n = self.n;
-        let col_perm = reverse_cuthill_mckee(cols);
+        let cols: Vec<&[usize]> = (0..n)
+            .map(|j| &self.row_idx[self.col_ptr[j]..self.col_ptr[j + 1]])
+            .collect();
+        let col_perm = reverse_cuthill_mckee(&cols);
         let mut col_perm_inv = vec![0usize; n];
         for (k, &p) in col_perm.iter().enumerate() {
             col_perm_inv[p] = k;
         }
         let req = StackReq::any_of(&[
-            factorize_simplicial_numeric_lu_scratch::<usize, f64>(n, n),
-            faer::perm::permute_rows_in_place_scratch::<usize, f64>(n, 1),
+            factorize_simplicial_numeric_lu_scratch::<usize, T>(n, n),
+            faer::perm::permute_rows_in_place_scratch::<usize, T>(n, 1),
         ]);
         self.scratch = MemBuffer::new(req);
         self.backend = Backend::Simplicial {
@@ -193,8 +201,8 @@ impl NewtonMatrix {
         let symbolic = supernodal_analysis(a, at);
         let (symbolic, col_perm, col_perm_inv) = symbolic;
         let req = StackReq::any_of(&[
-            factorize_supernodal_numeric_lu_scratch::<usize, f64>(&symbolic, Default::default()),
-            faer::sparse::linalg::lu::supernodal::solve_in_place_scratch::<usize, f64>(
+            factorize_supernodal_numeric_lu_scratch::<usize, T>(&symbolic, Default::default()),
+            faer::sparse::linalg::lu::supernodal::solve_in_place_scratch::<usize, T>(
                 self.n,
                 1,
                 Par::Seq,
@@ -212,7 +220,7 @@ impl NewtonMatrix {
             t_col_ptr,
             t_row_idx,
             t_source,
-            t_values: vec![0.0; nnz],
+            t_values: vec![T::default(); nnz],
         }));
         self.orderings += 1;
     }
@@ -227,7 +235,12 @@ impl NewtonMatrix {
     }
 
     pub fn clear(&mut self) {
-        self.values.iter_mut().for_each(|v| *v = 0.0);
+        self.values.iter_mut().for_each(|v| *v = T::default());
+    }
+
+    /// The pattern `(col_ptr, row_idx)`: rows sorted in each column.
+    pub fn pattern(&self) -> (&[usize], &[usize]) {
+        (&self.col_ptr, &self.row_idx)
     }
 
     /// Numeric LU (partial pivoting) of the current values, with the analysis of the pattern
@@ -278,7 +291,7 @@ impl NewtonMatrix {
     }
 
     /// Solves `A x = rhs` in place with the last factorization.
-    pub fn solve(&mut self, rhs: &mut [f64]) {
+    pub fn solve(&mut self, rhs: &mut [T]) {
         let n = self.n;
         let mat = MatMut::from_column_major_slice_mut(rhs, n, 1);
         let stack = MemStack::new(&mut self.scratch);
@@ -303,7 +316,9 @@ impl NewtonMatrix {
             }
         }
     }
+}
 
+impl NewtonMatrix<f64> {
     /// Entries of the L and U factors of the simplicial factorization (fill diagnostics;
     /// `None` for the supernodal one).
     pub fn factor_nnz(&self) -> Option<usize> {
@@ -460,11 +475,11 @@ fn supernodal_analysis(
 /// Reverse Cuthill–McKee order of the symmetrised pattern (`cols[j]`: rows of column j):
 /// breadth-first from a minimum-degree vertex, neighbours by increasing degree, reversed.
 /// Gives a narrow band, which partial pivoting can widen by at most a factor of two.
-fn reverse_cuthill_mckee(cols: &[Vec<usize>]) -> Vec<usize> {
+fn reverse_cuthill_mckee(cols: &[&[usize]]) -> Vec<usize> {
     let n = cols.len();
     let mut adj: Vec<Vec<usize>> = vec![Vec::new(); n];
     for (j, c) in cols.iter().enumerate() {
-        for &i in c {
+        for &i in c.iter() {
             if i != j {
                 adj[i].push(j);
                 adj[j].push(i);
