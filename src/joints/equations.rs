@@ -86,15 +86,8 @@ impl<T: Real> ColumnMap<'_, T> {
         l
     }
 
-    /// Adds `Bᵀ lam` to the momentum rows (or, with `jump_rows`, to the ED jump rows).
-    fn add_forces<const NC: usize>(
-        &self,
-        b: &Grad<T, NC>,
-        lam: &[T],
-        at: At,
-        jump_rows: bool,
-        out: &mut [T],
-    ) {
+    /// Adds `Bᵀ lam` to the momentum rows (rotation rows through the triad at `at`).
+    fn add_forces<const NC: usize>(&self, b: &Grad<T, NC>, lam: &[T], at: At, out: &mut [T]) {
         let mut g = [T::zero(); NC];
         for (c, gc) in g.iter_mut().enumerate() {
             for r in 0..self.n_rows {
@@ -102,15 +95,45 @@ impl<T: Real> ColumnMap<'_, T> {
             }
         }
         for n in self.nodes {
-            let slot = if jump_rows { n.jump } else { Some(n.delta) };
-            if let Some(s) = slot {
-                let rot = if at == At::Start { &n.r_i } else { &n.r_f };
-                add3(out, s, v3(&g, n.col));
-                add3(out, s + 3, rot.tmul_v(&v3(&g, n.col + 3)));
-            }
+            let rot = if at == At::Start { &n.r_i } else { &n.r_f };
+            add3(out, n.delta, v3(&g, n.col));
+            add3(out, n.delta + 3, rot.tmul_v(&v3(&g, n.col + 3)));
         }
         for c in self.coords {
-            out[c.slot + usize::from(jump_rows)] += g[c.col];
+            out[c.slot] += g[c.col];
+        }
+    }
+
+    /// ED's velocity-level multiplier forces from `l = λ_d/12`: `(B_f − B_i)ᵀ l` on the
+    /// momentum rows and `−(B_i + B_f)ᵀ l` on the jump rows (each `Bᵀ l` formed once).
+    fn add_jump_forces<const NC: usize>(
+        &self,
+        b_i: &Grad<T, NC>,
+        b_f: &Grad<T, NC>,
+        l: &[T],
+        out: &mut [T],
+    ) {
+        let mut gi = [T::zero(); NC];
+        let mut gf = [T::zero(); NC];
+        for c in 0..NC {
+            for r in 0..self.n_rows {
+                gi[c] += b_i[r][c] * l[r];
+                gf[c] += b_f[r][c] * l[r];
+            }
+        }
+        for n in self.nodes {
+            let (fi, ff) = (v3(&gi, n.col), v3(&gf, n.col));
+            let mi = n.r_i.tmul_v(&v3(&gi, n.col + 3));
+            let mf = n.r_f.tmul_v(&v3(&gf, n.col + 3));
+            add3(out, n.delta, ff - fi);
+            add3(out, n.delta + 3, mf - mi);
+            let j = n.jump.expect("ED layout");
+            add3(out, j, -(fi + ff));
+            add3(out, j + 3, -(mi + mf));
+        }
+        for c in self.coords {
+            out[c.slot] += gf[c.col] - gi[c.col];
+            out[c.slot + 1] -= gi[c.col] + gf[c.col];
         }
     }
 
@@ -178,7 +201,7 @@ pub fn add_constraint_equations<T: Real, const NC: usize>(
     let per = ColumnMap::<T>::per(ctx);
     let lam = map.multipliers(ctx, y, false);
     let at = if ctx.is_static() { At::End } else { At::Start };
-    map.add_forces(terms.b, &lam[..n], at, false, res);
+    map.add_forces(terms.b, &lam[..n], at, res);
     for r in 0..n {
         res[map.mult + per * r] += terms.c_f[r] * ctx.s;
     }
@@ -186,18 +209,12 @@ pub fn add_constraint_equations<T: Real, const NC: usize>(
         return;
     }
     let (b_i, b_f) = terms.rates.expect("ED needs the rate operators");
-    let lam_d = map.multipliers(ctx, y, true);
-    let mut pos = [T::zero(); MAX_ROWS];
-    let mut neg = [T::zero(); MAX_ROWS];
-    for r in 0..n {
-        pos[r] = lam_d[r] / 12.0;
-        neg[r] = -pos[r];
+    let mut l = map.multipliers(ctx, y, true);
+    for v in &mut l[..n] {
+        *v = *v / 12.0;
     }
     // −P_f ∋ (1/12)(B_f − B_i)ᵀ λ_d ; −P_j/6 ∋ −(1/12)(B_i + B_f)ᵀ λ_d.
-    map.add_forces(b_f, &pos[..n], At::End, false, res);
-    map.add_forces(b_i, &neg[..n], At::Start, false, res);
-    map.add_forces(b_i, &neg[..n], At::Start, true, res);
-    map.add_forces(b_f, &neg[..n], At::End, true, res);
+    map.add_jump_forces(b_i, b_f, &l[..n], res);
     // Velocity-level j-condition: B(q_i) V_j − B(q_f) V_f = 0.
     let mut ci = [T::zero(); MAX_ROWS];
     let mut cf = [T::zero(); MAX_ROWS];
