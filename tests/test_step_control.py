@@ -249,3 +249,16 @@ def test_modified_newton_refactors_before_halving_a_rotors_step():
     stats = fd.simulate(m).attrs["stats"]
     assert stats["halvings"] == 0
     assert stats["factorizations"] < stats["newton_iterations"]  # factors still reused
+
+
+def test_ed_decoupled_factors_back_off_where_they_do_not_serve():
+    # At large adaptive steps (10-36 ms on the beam pendulum) the nonlinear terms the decoupled
+    # complex system approximates (integrator/ed_decoupled.rs) make a fresh decoupled factor
+    # contract too slowly; each miss continues on the exact LU of the tangent in hand and
+    # later fresh factors stay exact for a while. Measured at tol 1e-3, 76 steps: 125
+    # factorizations (exact only: 118; retrying the decoupled system every time: 160).
+    m = fd.load(EXAMPLES / "beam_pendulum.yaml")
+    m.settings(tolerance=1e-3)
+    stats = fd.simulate(m).attrs["stats"]
+    assert stats["factorizations"] < 1.9 * stats["steps"], stats
+

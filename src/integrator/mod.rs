@@ -149,6 +149,12 @@ pub struct Integrator {
     exact_for_step: bool,
     /// Whether the factors in hand were computed in the current Newton solve.
     factored_this_solve: bool,
+    /// Fresh factorizations still to take on the exact matrix after decoupled factors did not
+    /// serve (`2^k` after the k-th such step in a row, at most 16): at large steps the
+    /// nonlinear terms the decoupled system approximates can make it contract too slowly
+    /// step after step, and each such try costs its LU and iterations.
+    decoupled_backoff: u32,
+    decoupled_misses: u32,
 }
 
 impl Integrator {
@@ -175,6 +181,8 @@ impl Integrator {
         fresh.solves = self.solves;
         fresh.matrix.numeric_factorizations += self.matrix.numeric_factorizations;
         fresh.decoupled_factorizations = self.decoupled_factorizations;
+        fresh.decoupled_backoff = self.decoupled_backoff;
+        fresh.decoupled_misses = self.decoupled_misses;
         fresh.matrix.orderings += self.matrix.orderings;
         *self = fresh;
     }
@@ -228,6 +236,8 @@ impl Integrator {
             factors: Factors::Exact,
             exact_for_step: false,
             factored_this_solve: false,
+            decoupled_backoff: 0,
+            decoupled_misses: 0,
         }
     }
 
@@ -348,11 +358,24 @@ impl Integrator {
     /// [`ed_decoupled`]) unless they did not serve this step; the exact matrix's otherwise
     /// (full Newton keeps its quadratic convergence).
     fn fresh_factors(&self, ctx: &StepCtx) -> Factors {
-        if ctx.ed() && self.modified_newton && !ctx.is_static() && !self.exact_for_step {
+        if ctx.ed()
+            && self.modified_newton
+            && !ctx.is_static()
+            && !self.exact_for_step
+            && self.decoupled_backoff == 0
+        {
             Factors::Decoupled
         } else {
             Factors::Exact
         }
+    }
+
+    /// Decoupled factors fresh in this step did not serve it: the exact matrix's until the
+    /// step is done, and for the next `2^k` fresh factorizations.
+    fn decoupled_missed(&mut self) {
+        self.exact_for_step = true;
+        self.decoupled_misses += 1;
+        self.decoupled_backoff = 1 << self.decoupled_misses.min(4);
     }
 
     /// Factors the assembled tangent (symbolic analysis reused), as the exact matrix or as
@@ -360,7 +383,10 @@ impl Integrator {
     fn solve_update(&mut self, factors: Factors) -> Result<(), String> {
         self.factored_for = None;
         match factors {
-            Factors::Exact => self.matrix.factor()?,
+            Factors::Exact => {
+                self.matrix.factor()?;
+                self.decoupled_backoff = self.decoupled_backoff.saturating_sub(1);
+            }
             Factors::Decoupled => {
                 let layout = self.layout;
                 let m = &self.matrix;
@@ -473,7 +499,7 @@ impl Integrator {
             result = self.newton(sys, &ctx);
         }
         if matches!(&result, Err(e) if e.retry && self.factors == Factors::Decoupled) {
-            self.exact_for_step = true;
+            self.decoupled_missed();
             self.factored_for = None;
             self.predict(sys, state, h);
             result = self.newton(sys, &ctx);
@@ -626,9 +652,12 @@ impl Integrator {
                 // The kept factors no longer pay: a fresh tangent at this iterate; the
                 // exact matrix's if the decoupled system's did not pay even fresh.
                 if self.factors == Factors::Decoupled && self.factored_this_solve {
-                    self.exact_for_step = true;
+                    // The tangent those factors came from is still assembled (iterations
+                    // since assembled residuals only): the exact LU of it, at once.
+                    self.decoupled_missed();
+                } else {
+                    self.assemble(sys, ctx, true);
                 }
-                self.assemble(sys, ctx, true);
                 reuse = false;
             }
             previous = Some(m);
@@ -652,6 +681,9 @@ impl Integrator {
             report.iterations += 1;
         }
         self.total_iterations += report.iterations;
+        if self.factors == Factors::Decoupled && self.factored_this_solve {
+            self.decoupled_misses = 0;
+        }
         self.check_contacts_on_beams(sys, ctx)?;
         self.last_converged = true;
         Ok(report)
