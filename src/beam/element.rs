@@ -558,6 +558,22 @@ impl Kernel for BeamElement {
     }
 }
 
+impl BeamElement {
+    /// ED: the residual and, of the tangent, only the j-rows the decoupled complex system
+    /// reads, written from the EP stiffness (see `tangent::decoupled_surrogate`).
+    pub fn evaluate_decoupled(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        res: &mut [f64],
+        vals: &mut [f64],
+        pos: &[usize],
+    ) {
+        debug_assert!(ctx.ed());
+        super::tangent::decoupled_surrogate(self, ctx, y, res, vals, pos)
+    }
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;

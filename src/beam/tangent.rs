@@ -12,8 +12,10 @@
 use super::element::{BeamElement, O_GROUPS, P_FROM, P_GROUPS, Q_GROUPS, U_FROM, U_GROUPS};
 use super::shape::MAX_NODES;
 use crate::elements::{v3, StepCtx, MAX_LOCAL};
+use crate::model::Scheme;
 use crate::rotation::{cayley, cayley_tangent};
 use crate::scalar::Dual;
+use crate::system::layout::Layout;
 use crate::vec3::{M3, V3};
 
 type B3 = M3<f64>;
@@ -34,14 +36,96 @@ pub(super) fn evaluate(
     vals: &mut [f64],
     pos: &[usize],
 ) {
-    let out = (res, vals, pos);
-    if ctx.ed() {
-        chained::<{ GEO + 6 }, U_GROUPS, Q_GROUPS, P_GROUPS, 4>(el, ctx, y, out, [0, 1, 2, 3, 4]);
-    } else if ctx.is_static() {
-        chained::<GEO, 2, 2, 3, 2>(el, ctx, y, out, [0, 2]);
-    } else {
-        chained::<GEO, 2, 2, 3, 2>(el, ctx, y, out, [0, 1]);
+    let idx = crate::elements::Kernel::unknowns(el);
+    let n = idx.len();
+    let mut yl = [0.0f64; MAX_LOCAL];
+    for (l, &g) in idx.iter().enumerate() {
+        yl[l] = y[g];
     }
+    let mut rl = [0.0f64; MAX_LOCAL];
+    let per = n / el.nodes.len();
+    // Block (a, b)'s entries into the element's row-major tangent.
+    macro_rules! emit {
+        () => {
+            |a: usize, b: usize, k: &[[B3; _]]| {
+                for (rg, row) in k.iter().enumerate() {
+                    for (yg, blk) in row.iter().enumerate() {
+                        for i in 0..3 {
+                            let r = (per * a + 3 * rg + i) * n + per * b + 3 * yg;
+                            for j in 0..3 {
+                                vals[pos[r + j]] += blk.0[i][j];
+                            }
+                        }
+                    }
+                }
+            }
+        };
+    }
+    let (yl, rl_out) = (&yl[..n], Some(&mut rl[..n]));
+    if ctx.ed() {
+        chained::<{ GEO + 6 }, U_GROUPS, Q_GROUPS, P_GROUPS, 4>(
+            el,
+            ctx,
+            yl,
+            rl_out,
+            [0, 1, 2, 3, 4],
+            emit!(),
+        );
+    } else if ctx.is_static() {
+        chained::<GEO, 2, 2, 3, 2>(el, ctx, yl, rl_out, [0, 2], emit!());
+    } else {
+        chained::<GEO, 2, 2, 3, 2>(el, ctx, yl, rl_out, [0, 1], emit!());
+    }
+    for (l, &g) in idx.iter().enumerate() {
+        res[g] += rl[l];
+    }
+}
+
+/// ED under modified Newton: the decoupled complex system (`integrator::ed_decoupled`) reads
+/// only the j-rows of the tangent, which for a linear beam are `K/18` (jump columns) and
+/// `−2K/9` (increment columns) of one stiffness `K`. This writes them from `K ≈ 2 ∂P_f/∂Δ` of
+/// EP's equations at the same increments (material and geometric stiffness at mid-step) —
+/// an EP tangent, a third of ED's — and leaves the f-rows out; the residual is ED's.
+pub(super) fn decoupled_surrogate(
+    el: &BeamElement,
+    ctx: &StepCtx,
+    y: &[f64],
+    res: &mut [f64],
+    vals: &mut [f64],
+    pos: &[usize],
+) {
+    crate::elements::eval_kernel(el, ctx, y, res, None);
+    let idx = crate::elements::Kernel::unknowns(el);
+    let n = idx.len();
+    let mut yl = [0.0f64; MAX_LOCAL];
+    for (a, node) in idx.chunks(12).enumerate() {
+        for k in 0..6 {
+            yl[6 * a + k] = y[node[k]];
+        }
+    }
+    let ep = StepCtx {
+        layout: Layout {
+            scheme: Scheme::Ep,
+            ..ctx.layout
+        },
+        ..*ctx
+    };
+    let emit = |a: usize, b: usize, k: &[[B3; 2]]| {
+        for (rg, row) in k.iter().enumerate() {
+            for (yg, blk) in row.iter().enumerate() {
+                for i in 0..3 {
+                    let r = (12 * a + 6 + 3 * rg + i) * n + 12 * b + 3 * yg;
+                    for j in 0..3 {
+                        let v = blk.0[i][j];
+                        vals[pos[r + j]] -= (4.0 / 9.0) * v;
+                        vals[pos[r + j + 6]] += v / 9.0;
+                    }
+                }
+            }
+        }
+    };
+    let nn = el.nodes.len();
+    chained::<GEO, 2, 2, 3, 2>(el, &ep, &yl[..6 * nn], None, [0, 1], emit);
 }
 
 /// [`evaluate`] with `N` dual directions per point, the row quantities `active` (`NU`), `NQ`
@@ -50,17 +134,11 @@ pub(super) fn evaluate(
 fn chained<const N: usize, const NU: usize, const NQ: usize, const NP: usize, const NY: usize>(
     el: &BeamElement,
     ctx: &StepCtx,
-    y: &[f64],
-    (res, vals, pos): (&mut [f64], &mut [f64], &[usize]),
+    yl: &[f64],
+    res: Option<&mut [f64]>,
     active: [usize; NU],
+    mut emit: impl FnMut(usize, usize, &[[B3; NY]]),
 ) {
-    let idx = crate::elements::Kernel::unknowns(el);
-    let n = idx.len();
-    let mut yl = [0.0f64; MAX_LOCAL];
-    for (l, &g) in idx.iter().enumerate() {
-        yl[l] = y[g];
-    }
-    let yl = &yl[..n];
     let nn = el.nodes.len();
     let q = el.node_quantities::<f64>(ctx, yl);
     let mut u = [[V3::<f64>::zero(); U_GROUPS]; MAX_NODES];
@@ -93,27 +171,14 @@ fn chained<const N: usize, const NU: usize, const NQ: usize, const NP: usize, co
             }
         }
     }
-    let mut rl = [0.0f64; MAX_LOCAL];
-    el.add_nodal_rows(ctx, yl, &u, &mut rl[..n]);
-    for (l, &g) in idx.iter().enumerate() {
-        res[g] += rl[l];
+    if let Some(rl) = res {
+        el.add_nodal_rows(ctx, yl, &u, rl);
     }
     let nodal = NodalMaps::new(el, ctx, yl, &u);
-    let per = n / nn;
-    debug_assert_eq!(per, 3 * NY);
     for a in 0..nn {
         for b in 0..nn {
             let k = nodal.block::<NU, NQ, NY>(a, b, &gab[a][b], &active);
-            for (rg, row) in k.iter().enumerate() {
-                for (yg, blk) in row.iter().enumerate() {
-                    for i in 0..3 {
-                        let r = (per * a + 3 * rg + i) * n + per * b + 3 * yg;
-                        for j in 0..3 {
-                            vals[pos[r + j]] += blk.0[i][j];
-                        }
-                    }
-                }
-            }
+            emit(a, b, &k);
         }
     }
 }

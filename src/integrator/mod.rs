@@ -155,6 +155,9 @@ pub struct Integrator {
     /// step after step, and each such try costs its LU and iterations.
     decoupled_backoff: u32,
     decoupled_misses: u32,
+    /// Whether the assembled tangent values are the exact Newton matrix (not the decoupled
+    /// system's rows only).
+    values_exact: bool,
 }
 
 impl Integrator {
@@ -238,6 +241,7 @@ impl Integrator {
             factored_this_solve: false,
             decoupled_backoff: 0,
             decoupled_misses: 0,
+            values_exact: false,
         }
     }
 
@@ -382,6 +386,7 @@ impl Integrator {
     /// ED's decoupled system, and applies the update.
     fn solve_update(&mut self, factors: Factors) -> Result<(), String> {
         self.factored_for = None;
+        debug_assert!(factors == Factors::Decoupled || self.values_exact);
         match factors {
             Factors::Exact => {
                 self.matrix.factor()?;
@@ -419,6 +424,22 @@ impl Integrator {
     /// Assembles the residual (and the tangent values if asked) at the current unknowns,
     /// and each row's activity.
     pub fn assemble(&mut self, sys: &System, ctx: &StepCtx, with_jacobian: bool) {
+        let tangent = if with_jacobian {
+            Some(Factors::Exact)
+        } else {
+            None
+        };
+        self.assemble_for(sys, ctx, tangent);
+    }
+
+    /// [`Integrator::assemble`] with the tangent the given factors need, if any: the exact
+    /// one, or for ED's decoupled system only the rows it reads (the beams' from their EP
+    /// stiffness, `BeamElement::evaluate_decoupled`).
+    fn assemble_for(&mut self, sys: &System, ctx: &StepCtx, tangent: Option<Factors>) {
+        let with_jacobian = tangent.is_some();
+        if with_jacobian {
+            self.values_exact = tangent == Some(Factors::Exact);
+        }
         self.res.iter_mut().for_each(|r| *r = 0.0);
         self.activity.iter_mut().for_each(|r| *r = 0.0);
         if with_jacobian {
@@ -450,7 +471,20 @@ impl Integrator {
             };
         }
         run!(sys.inertias, self.inertia_pos);
-        run!(sys.beams, self.beam_pos);
+        if tangent == Some(Factors::Decoupled) {
+            for (k, p) in sys.beams.iter().zip(&self.beam_pos) {
+                let idx = k.unknowns();
+                for (b, &g) in before.iter_mut().zip(idx) {
+                    *b = res[g];
+                }
+                k.evaluate_decoupled(ctx, y, res, vals, p);
+                for (b, &g) in before.iter().zip(idx) {
+                    activity[g] += (res[g] - b).abs();
+                }
+            }
+        } else {
+            run!(sys.beams, self.beam_pos);
+        }
         run!(sys.joints, self.joint_pos);
         run!(sys.springs, self.spring_pos);
         run!(sys.drives, self.drive_pos);
@@ -611,7 +645,8 @@ impl Integrator {
             if it == 0 {
                 self.started_stale = reuse;
             }
-            self.assemble(sys, ctx, !reuse);
+            let tangent = (!reuse).then(|| self.fresh_factors(ctx));
+            self.assemble_for(sys, ctx, tangent);
             if ctx.is_static() {
                 self.regularize_static(sys, ctx);
             }
@@ -651,12 +686,15 @@ impl Integrator {
             if reuse && self.contraction_too_slow(sys, &m, previous.as_ref()) {
                 // The kept factors no longer pay: a fresh tangent at this iterate; the
                 // exact matrix's if the decoupled system's did not pay even fresh.
-                if self.factors == Factors::Decoupled && self.factored_this_solve {
-                    // The tangent those factors came from is still assembled (iterations
-                    // since assembled residuals only): the exact LU of it, at once.
+                let missed = self.factors == Factors::Decoupled && self.factored_this_solve;
+                if missed {
                     self.decoupled_missed();
-                } else {
-                    self.assemble(sys, ctx, true);
+                }
+                // After a miss the exact tangent those factors came from, if it is still
+                // assembled (iterations since assembled residuals only), is factored at once.
+                if !(missed && self.values_exact) {
+                    let tangent = self.fresh_factors(ctx);
+                    self.assemble_for(sys, ctx, Some(tangent));
                 }
                 reuse = false;
             }
