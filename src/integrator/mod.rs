@@ -451,19 +451,22 @@ impl Integrator {
         let vals = &mut self.matrix.values;
         // Each kernel's rows before it adds to them: its contribution's magnitude is activity.
         let mut before = [0.0f64; crate::elements::MAX_LOCAL];
+        // `$eval(kernel, jac)` evaluates one kernel; the macro records its rows' activity.
         macro_rules! run {
             ($list:expr, $pos:expr) => {
+                run!($list, $pos, |k: &_, jac| Kernel::evaluate(
+                    k, ctx, y, res, jac
+                ))
+            };
+            ($list:expr, $pos:expr, $eval:expr) => {
                 for (k, p) in $list.iter().zip($pos.iter()) {
-                    let jac = if with_jacobian {
-                        Some((&mut vals[..], &p[..]))
-                    } else {
-                        None
-                    };
                     let idx = k.unknowns();
                     for (b, &g) in before.iter_mut().zip(idx) {
                         *b = res[g];
                     }
-                    k.evaluate(ctx, y, res, jac);
+                    let jac = with_jacobian.then(|| (&mut vals[..], &p[..]));
+                    #[allow(clippy::redundant_closure_call)]
+                    ($eval)(k, jac);
                     for (b, &g) in before.iter().zip(idx) {
                         activity[g] += (res[g] - b).abs();
                     }
@@ -472,16 +475,14 @@ impl Integrator {
         }
         run!(sys.inertias, self.inertia_pos);
         if tangent == Some(Factors::Decoupled) {
-            for (k, p) in sys.beams.iter().zip(&self.beam_pos) {
-                let idx = k.unknowns();
-                for (b, &g) in before.iter_mut().zip(idx) {
-                    *b = res[g];
+            run!(
+                sys.beams,
+                self.beam_pos,
+                |k: &crate::beam::element::BeamElement, jac: Option<(&mut [f64], &[usize])>| {
+                    let (vals, pos) = jac.expect("a tangent is assembled");
+                    k.evaluate_decoupled(ctx, y, res, vals, pos)
                 }
-                k.evaluate_decoupled(ctx, y, res, vals, p);
-                for (b, &g) in before.iter().zip(idx) {
-                    activity[g] += (res[g] - b).abs();
-                }
-            }
+            );
         } else {
             run!(sys.beams, self.beam_pos);
         }
