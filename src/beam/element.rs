@@ -115,7 +115,7 @@ pub(super) struct PointStep<T> {
     pub(super) xp_f: V3<T>,
 }
 
-fn mat6_mul<T: Real>(c: &Mat6, e: &[T; 6]) -> [T; 6] {
+pub(super) fn mat6_mul<T: Real>(c: &Mat6, e: &[T; 6]) -> [T; 6] {
     let mut n = [T::zero(); 6];
     for (i, ni) in n.iter_mut().enumerate() {
         for (j, ej) in e.iter().enumerate() {
@@ -277,10 +277,22 @@ impl BeamElement {
         p: &[V3<T>; P_GROUPS],
         deps_j: &[T; 6],
     ) -> [V3<T>; O_GROUPS] {
+        let ps = self.point_kinematics(ctx, g, &p[0], &p[1], &p[2]);
+        self.point_outputs_at(ctx, g, &ps, p, deps_j)
+    }
+
+    /// [`BeamElement::point_outputs`] from the point's kinematics `ps` (of the inputs `p`).
+    pub(super) fn point_outputs_at<T: Real>(
+        &self,
+        ctx: &StepCtx,
+        g: usize,
+        ps: &PointStep<T>,
+        p: &[V3<T>; P_GROUPS],
+        deps_j: &[T; 6],
+    ) -> [V3<T>; O_GROUPS] {
         let pt = &self.points[g];
         let c = &pt.stiffness;
         let w = pt.weight;
-        let ps = self.point_kinematics(ctx, g, &p[0], &p[1], &p[2]);
         let mut o = [V3::<T>::zero(); O_GROUPS];
         let rate_form = |o: &mut [V3<T>], rg: &M3<T>, xp: &V3<T>, n: &[T; 6]| {
             o[0] = rg.mul_v(&V3([n[0], n[1], n[2]])).scale_f(w);
