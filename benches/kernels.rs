@@ -2,7 +2,7 @@
 //! (assembly with exact tangents, numeric LU with the symbolic analysis reused, solve).
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use flexdyn::integrator::Integrator;
+use flexdyn::integrator::{Factors, Integrator};
 use flexdyn::model::{from_yaml_str, Scheme};
 use flexdyn::rotation::{cayley, exp_map, log_map};
 use flexdyn::simulation::Simulation;
@@ -82,8 +82,35 @@ fn newton_iteration(c: &mut Criterion) {
             let name = format!("solve/{label}_{scheme:?}").to_lowercase();
             let mut rhs = vec![1.0; sim.system.layout.n_unknowns()];
             c.bench_function(&name, |b| b.iter(|| integ.matrix.solve(&mut rhs)));
+            if scheme == Scheme::Ed {
+                decoupled_iteration(c, label, &sim, &mut integ);
+            }
         }
     }
+}
+
+/// ED's Newton iteration as modified Newton takes it with a fresh tangent (the default): the
+/// rows the decoupled complex system reads, its LU and its solve.
+fn decoupled_iteration(c: &mut Criterion, label: &str, sim: &Simulation, integ: &mut Integrator) {
+    let h = sim.settings.dt;
+    let ctx = sim.ctx(h);
+    let d = Factors::Decoupled;
+    c.bench_function(&format!("newton_iteration/{label}_ed_decoupled"), |b| {
+        b.iter(|| {
+            integ.predict(&sim.system, &sim.state, h);
+            integ.newton_iteration_with(&sim.system, &ctx, d).unwrap()
+        })
+    });
+    c.bench_function(&format!("assembly/{label}_ed_decoupled"), |b| {
+        b.iter(|| integ.assemble_tangent(&sim.system, &ctx, d))
+    });
+    integ.assemble_tangent(&sim.system, &ctx, d);
+    c.bench_function(&format!("factorization/{label}_ed_decoupled"), |b| {
+        b.iter(|| integ.factor_tangent(d).unwrap())
+    });
+    c.bench_function(&format!("solve/{label}_ed_decoupled"), |b| {
+        b.iter(|| integ.solve_residual())
+    });
 }
 
 /// One cubic beam element's residual and exact tangent (EP and ED), inside the beam pendulum.

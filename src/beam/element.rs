@@ -307,18 +307,9 @@ impl BeamElement {
         let mut mean = [T::zero(); 6];
         let mut jump = [T::zero(); 6];
         if ctx.ed() {
-            let h6 = ctx.h / 6.0;
-            let bi_e = ps.rg_i.tmul_v(&(p[3] + ps.xp_i.cross(&p[4])));
-            let bi_k = ps.rg_i.tmul_v(&p[5]);
-            let bf_e = ps.rg_f.tmul_v(&(p[6] + ps.xp_f.cross(&p[7])));
-            let bf_k = ps.rg_f.tmul_v(&p[8]);
+            let eps_j = self.strain_jump_state(ctx, ps, p);
             for k in 0..6 {
-                let (bi, bf) = if k < 3 {
-                    (bi_e.0[k], bf_e.0[k])
-                } else {
-                    (bi_k.0[k - 3], bf_k.0[k - 3])
-                };
-                let eps_j = ps.eps_i[k] + (bi - bf) * h6 + deps_j[k];
+                let eps_j = eps_j[k] + deps_j[k];
                 mean[k] = (eps_j + ps.eps_f[k]) * 0.5;
                 jump[k] = ps.eps_f[k] - eps_j;
             }
@@ -340,6 +331,28 @@ impl BeamElement {
             rate_form(&mut o[6..], &ps.rg_f, &ps.xp_f, &neg);
         }
         o
+    }
+
+    /// ED's strain state `ε_j = ε_i + h/6 (B_i V_j − B_f V_f)` of a point (ed-scheme-notes §3.2).
+    pub(super) fn strain_jump_state<T: Real>(
+        &self,
+        ctx: &StepCtx,
+        ps: &PointStep<T>,
+        p: &[V3<T>; P_GROUPS],
+    ) -> [T; 6] {
+        let h6 = ctx.h / 6.0;
+        let bi_e = ps.rg_i.tmul_v(&(p[3] + ps.xp_i.cross(&p[4])));
+        let bi_k = ps.rg_i.tmul_v(&p[5]);
+        let bf_e = ps.rg_f.tmul_v(&(p[6] + ps.xp_f.cross(&p[7])));
+        let bf_k = ps.rg_f.tmul_v(&p[8]);
+        std::array::from_fn(|k| {
+            let (bi, bf) = if k < 3 {
+                (bi_e.0[k], bf_e.0[k])
+            } else {
+                (bi_k.0[k - 3], bf_k.0[k - 3])
+            };
+            ps.eps_i[k] + (bi - bf) * h6
+        })
     }
 
     /// Adds Gauss point `g`'s outputs to each node's row quantities (see [`U_FROM`]).

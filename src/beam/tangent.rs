@@ -196,10 +196,29 @@ fn point_jacobian<const N: usize>(
     q: &[[V3<f64>; Q_GROUPS]; MAX_NODES],
 ) -> ([V3<f64>; O_GROUPS], [[B3; P_GROUPS]; O_GROUPS]) {
     let p = el.point_inputs(g, q);
-    if !ctx.ed() && !ctx.is_static() {
-        return ep_point_jacobian(el, ctx, g, &p);
+    if ctx.is_static() {
+        return dual_point_jacobian::<N>(el, ctx, g, &p);
     }
-    dual_point_jacobian::<N>(el, ctx, g, &p)
+    closed_point_jacobian(el, ctx, g, &p)
+}
+
+/// [`point_jacobian`] of a time step from [`closed_point_derivatives`].
+fn closed_point_jacobian(
+    el: &BeamElement,
+    ctx: &StepCtx,
+    g: usize,
+    p: &[V3<f64>; P_GROUPS],
+) -> ([V3<f64>; O_GROUPS], [[B3; P_GROUPS]; O_GROUPS]) {
+    let (o, closed) = closed_point_derivatives(el, ctx, g, p);
+    let mut jac = [[B3::zero(); P_GROUPS]; O_GROUPS];
+    for (row, c) in jac.iter_mut().zip(&closed) {
+        row[..3].copy_from_slice(&c[..3]);
+    }
+    if ctx.ed() {
+        let d_j: [[B3; 2]; O_GROUPS] = std::array::from_fn(|og| [closed[og][3], closed[og][4]]);
+        velocity_columns(el, ctx, g, p, &d_j, &mut jac);
+    }
+    (o, jac)
 }
 
 /// `∂(H(ρ) z)/∂ρ` for a fixed `z`, with `H = I − ρρᵀ/(4 + ρᵀρ)`:
@@ -214,57 +233,75 @@ fn h_times_gradient(rho: &V3<f64>, z: &V3<f64>) -> B3 {
     m
 }
 
-/// The D group of an EP step (see [`BeamElement::point_outputs`]) differentiated by hand over
-/// its inputs `Δx′, ρ, ρ′`. With `a = H_s(ρ) δρ` the spatial variation of `R_f = cay(ρ) R_i`
-/// (`δR_f = ã R_f`, `H_s` = [`rodrigues_h`]) and `v = Hρ′`:
-/// `δe_f = R_fᵀ δΔx′ + R_fᵀ x̃′_f a`, `δκ_f = ½ R_fᵀ ṽ a + R_mᵀ ∂(Hρ′)/∂ρ δρ + R_mᵀ H δρ′`,
-/// `δn = C δε_f / 2`; `δo₀ = w R_m δn_F − ½ w (R_f n_F)~ a`,
-/// `δo₂ = w H R_m δn_M + w ∂(H R_m n_M)/∂ρ δρ − ½ w H (R_f n_M)~ a`,
-/// `δo₁ = −x̃_m δo₀ + ½ õ₀ δΔx′` with `x_m = (x′_i + x′_f)/2`.
-fn ep_point_jacobian(
+/// Directions of the closed-form point Jacobian: `Δx′, ρ, ρ′` and, under ED, the two halves
+/// (`e*`, `κ`) of the strain state ε_j, through which the velocity inputs act.
+const CLOSED_DIRS: usize = 5;
+
+/// A step's point outputs (see [`BeamElement::point_outputs`]) differentiated by hand. With
+/// `a = H_s(ρ) δρ` the spatial variation of `R_f = cay(ρ) R_i` (`δR_f = ã R_f`, `H_s` =
+/// [`rodrigues_h`]), `v = Hρ′` and `z_e = v′_f + x′_f × ω_f`:
+/// - `δe_f = R_fᵀ δΔx′ + R_fᵀ x̃′_f a`, `δκ_f = ½ R_fᵀ ṽ a + R_mᵀ ∂(Hρ′)/∂ρ δρ + R_mᵀ H δρ′`;
+/// - ED: `δε_j = h/6 (R_fᵀ ω̃_f δΔx′ − R_fᵀ z̃_e a, −R_fᵀ ṽ′ω_f a) + δε_j^seed`;
+/// - D: `n = C ε̄` (ε̄ the mean strain), `δo₀ = w R_m δn_F − ½ w (R_f n_F)~ a`,
+///   `δo₂ = w H R_m δn_M + w ∂(H R_m n_M)/∂ρ δρ − ½ w H (R_f n_M)~ a`, `δo₁ = −x̃_m δo₀ + ½ õ₀ δΔx′`;
+/// - ED's I and F, `−C(ε_f − ε_j)/12` through `R_i` and `R_f`: `δo₆ = w R_f δn − õ₆ a`,
+///   `δo₇ = −x̃′_f δo₆ + õ₆ δΔx′`, `δo₈ = w R_f δn_M − õ₈ a`, and at i the same without the
+///   triad's variation.
+///
+/// Returns the outputs, `∂o/∂p` for the geometric inputs and `∂o/∂ε_j` by strain half.
+fn closed_point_derivatives(
     el: &BeamElement,
     ctx: &StepCtx,
     g: usize,
     p: &[V3<f64>; P_GROUPS],
-) -> ([V3<f64>; O_GROUPS], [[B3; P_GROUPS]; O_GROUPS]) {
-    let pt = &el.points[g];
+) -> ([V3<f64>; O_GROUPS], [[B3; CLOSED_DIRS]; O_GROUPS]) {
+    let (ed, pt) = (ctx.ed(), &el.points[g]);
     let (c, w) = (&pt.stiffness, pt.weight);
     let (rho, rho_p) = (&p[1], &p[2]);
     let ps = el.point_kinematics(ctx, g, &p[0], rho, rho_p);
     let o = el.point_outputs_at(ctx, g, &ps, p, &[0.0; 6]);
     let hs = rodrigues_h(rho);
-    let rf_t = ps.rg_f.transpose();
-    let rm_t = ps.rm.transpose();
-    let v = ps.hm.mul_v(rho_p);
-    // ∂ε_f/∂p as [strain half][input group] (input 0: Δx′, 1: ρ, 2: ρ′).
-    let de = [
-        [rf_t, rf_t.mul_m(&ps.xp_f.tilde()).mul_m(&hs), B3::zero()],
-        [
-            B3::zero(),
-            rf_t.mul_m(&v.tilde()).mul_m(&hs).scale_f(0.5)
-                + rm_t.mul_m(&h_times_gradient(rho, rho_p)),
-            rm_t.mul_m(&ps.hm),
-        ],
-    ];
-    // w ∂n/∂p = (w/2) C ∂ε_f/∂p, by 3×3 blocks of C.
+    let (rf_t, rm_t) = (ps.rg_f.transpose(), ps.rm.transpose());
+    let nd = if ed { CLOSED_DIRS } else { 3 };
+    // ∂ε_f and ∂ε_j as [strain half][direction].
+    let mut d_f = [[B3::zero(); CLOSED_DIRS]; 2];
+    d_f[0][0] = rf_t;
+    d_f[0][1] = rf_t.mul_m(&ps.xp_f.tilde()).mul_m(&hs);
+    d_f[1][1] = rf_t
+        .mul_m(&ps.hm.mul_v(rho_p).tilde())
+        .mul_m(&hs)
+        .scale_f(0.5)
+        + rm_t.mul_m(&h_times_gradient(rho, rho_p));
+    d_f[1][2] = rm_t.mul_m(&ps.hm);
+    let mut d_j = [[B3::zero(); CLOSED_DIRS]; 2];
+    let eps_j = if ed {
+        let h6 = ctx.h / 6.0;
+        let z_e = p[6] + ps.xp_f.cross(&p[7]);
+        d_j[0][0] = rf_t.mul_m(&p[7].tilde()).scale_f(h6);
+        d_j[0][1] = rf_t.mul_m(&z_e.tilde()).mul_m(&hs).scale_f(-h6);
+        d_j[1][1] = rf_t.mul_m(&p[8].tilde()).mul_m(&hs).scale_f(-h6);
+        (d_j[0][3], d_j[1][4]) = (B3::identity(), B3::identity());
+        el.strain_jump_state(ctx, &ps, p)
+    } else {
+        ps.eps_i
+    };
+    // w C by 3×3 blocks; `wc(half, ∂ε)` = the sectional forces' half of w C ∂ε.
     let block = |i: usize, j: usize| {
         M3(std::array::from_fn(|r| {
-            std::array::from_fn(|s| 0.5 * w * c[3 * i + r][3 * j + s])
+            std::array::from_fn(|s| w * c[3 * i + r][3 * j + s])
         }))
     };
     let cb = [[block(0, 0), block(0, 1)], [block(1, 0), block(1, 1)]];
-    let dn = |half: usize, k: usize| cb[half][0].mul_m(&de[0][k]) + cb[half][1].mul_m(&de[1][k]);
-    let n = mat6_mul(
-        c,
-        &std::array::from_fn(|k| 0.5 * (ps.eps_i[k] + ps.eps_f[k])),
-    );
+    let wc = |half: usize, e: [B3; 2]| cb[half][0].mul_m(&e[0]) + cb[half][1].mul_m(&e[1]);
+    let n = mat6_mul(c, &std::array::from_fn(|k| 0.5 * (eps_j[k] + ps.eps_f[k])));
     let (n_f, n_m) = (V3([n[0], n[1], n[2]]), V3([n[3], n[4], n[5]]));
-    let xm = (ps.xp_i + ps.xp_f).scale_f(0.5);
+    let xm_t = (ps.xp_i + ps.xp_f).scale_f(0.5).tilde();
     let hrm = ps.hm.mul_m(&ps.rm);
-    let mut jac = [[B3::zero(); P_GROUPS]; O_GROUPS];
-    for k in 0..3 {
-        jac[0][k] = ps.rm.mul_m(&dn(0, k));
-        jac[2][k] = hrm.mul_m(&dn(1, k));
+    let mut jac = [[B3::zero(); CLOSED_DIRS]; O_GROUPS];
+    for k in 0..nd {
+        let mean = |h: usize| (d_f[h][k] + d_j[h][k]).scale_f(0.5);
+        jac[0][k] = ps.rm.mul_m(&wc(0, [mean(0), mean(1)]));
+        jac[2][k] = hrm.mul_m(&wc(1, [mean(0), mean(1)]));
     }
     jac[0][1] = jac[0][1] - ps.rg_f.mul_v(&n_f).tilde().mul_m(&hs).scale_f(0.5 * w);
     jac[2][1] = jac[2][1] + h_times_gradient(rho, &ps.rm.mul_v(&n_m)).scale_f(w)
@@ -272,11 +309,28 @@ fn ep_point_jacobian(
             .mul_m(&ps.rg_f.mul_v(&n_m).tilde())
             .mul_m(&hs)
             .scale_f(0.5 * w);
-    let xm_t = xm.tilde();
-    for k in 0..3 {
+    for k in 0..nd {
         jac[1][k] = B3::zero() - xm_t.mul_m(&jac[0][k]);
     }
     jac[1][0] = jac[1][0] + o[0].tilde().scale_f(0.5);
+    if ed {
+        let (xi_t, xf_t) = (ps.xp_i.tilde(), ps.xp_f.tilde());
+        for k in 0..nd {
+            let jump = |h: usize| (d_f[h][k] - d_j[h][k]).scale_f(-1.0 / 12.0);
+            let (dn_f, dn_m) = (wc(0, [jump(0), jump(1)]), wc(1, [jump(0), jump(1)]));
+            jac[3][k] = ps.rg_i.mul_m(&dn_f);
+            jac[5][k] = ps.rg_i.mul_m(&dn_m);
+            jac[4][k] = B3::zero() - xi_t.mul_m(&jac[3][k]);
+            jac[6][k] = ps.rg_f.mul_m(&dn_f);
+            jac[8][k] = ps.rg_f.mul_m(&dn_m);
+        }
+        jac[6][1] = jac[6][1] - o[6].tilde().mul_m(&hs);
+        jac[8][1] = jac[8][1] - o[8].tilde().mul_m(&hs);
+        for k in 0..nd {
+            jac[7][k] = B3::zero() - xf_t.mul_m(&jac[6][k]);
+        }
+        jac[7][0] = jac[7][0] + o[6].tilde();
+    }
     (o, jac)
 }
 
@@ -310,19 +364,27 @@ fn dual_point_jacobian<const N: usize>(
         }
     }
     if ctx.ed() {
-        velocity_columns(el, ctx, g, p, &od, &mut jac);
+        let d_j: [[B3; 2]; O_GROUPS] = std::array::from_fn(|og| {
+            std::array::from_fn(|half| {
+                M3(std::array::from_fn(|i| {
+                    std::array::from_fn(|j| od[og].0[i].du[GEO + 3 * half + j])
+                }))
+            })
+        });
+        velocity_columns(el, ctx, g, p, &d_j, &mut jac);
     }
     (o, jac)
 }
 
 /// ED: the outputs are affine in the velocity inputs, which act only through ε_j:
 /// `∂o/∂p_k = (∂o/∂ε_j) (∂ε_j/∂p_k)`, with `ε_j = ε_i + h/6 (B_i V_j − B_f V_f)`.
-fn velocity_columns<const N: usize>(
+/// `d_j[og][half]` is `∂o/∂ε_j` by strain half.
+fn velocity_columns(
     el: &BeamElement,
     ctx: &StepCtx,
     g: usize,
     p: &[V3<f64>; P_GROUPS],
-    od: &[V3<Dual<N>>; O_GROUPS],
+    d_j: &[[B3; 2]; O_GROUPS],
     jac: &mut [[B3; P_GROUPS]; O_GROUPS],
 ) {
     let ps = el.point_kinematics(ctx, g, &p[0], &p[1], &p[2]);
@@ -337,19 +399,9 @@ fn velocity_columns<const N: usize>(
         (0, rgf_t.mul_m(&ps.xp_f.tilde()).scale_f(-h6)),
         (1, rgf_t.scale_f(-h6)),
     ];
-    for (og, v) in od.iter().enumerate() {
-        for half in 0..2 {
-            let mut e = B3::zero();
-            for i in 0..3 {
-                for j in 0..3 {
-                    e.0[i][j] = v.0[i].du[GEO + 3 * half + j];
-                }
-            }
-            for (k, (h, blk)) in de.iter().enumerate() {
-                if *h == half {
-                    jac[og][3 + k] = e.mul_m(blk);
-                }
-            }
+    for (row, e) in jac.iter_mut().zip(d_j) {
+        for (k, (half, blk)) in de.iter().enumerate() {
+            row[3 + k] = e[*half].mul_m(blk);
         }
     }
 }
@@ -487,30 +539,34 @@ mod tests {
     use super::*;
     use crate::beam::element::tests::{ctx, fixture};
 
-    /// The closed-form EP point Jacobian against the dual pass it replaced, at increments of
-    /// ~0.3 rad and 6 % of the element's length on the stressed fixture: both are exact, so
-    /// they agree to round-off (1e-12 of the largest entry; a 1e-6 change of any term fails).
+    /// The closed-form point Jacobian against the dual pass it replaced, for both schemes, at
+    /// increments of ~0.3 rad and 6 % of the element's length on the stressed, moving fixture:
+    /// both are exact, so they agree to round-off (1e-12 of the largest entry; a 1e-6 change
+    /// of any term fails).
     #[test]
-    fn closed_form_ep_point_jacobian_is_the_dual_one() {
-        for n in 2..=4 {
-            let (el, state, layout) = fixture(n, Scheme::Ep);
-            let c = ctx(layout, &state);
-            let y: Vec<f64> = (0..6 * n)
-                .map(|i| 0.15 * ((i as f64) * 1.3 + 0.4).sin())
-                .collect();
-            let q = el.node_quantities::<f64>(&c, &y);
-            for g in 0..el.points.len() {
-                let p = el.point_inputs(g, &q);
-                let (o, jac) = ep_point_jacobian(&el, &c, g, &p);
-                let (od, jd) = dual_point_jacobian::<GEO>(&el, &c, g, &p);
-                let scale = jd.iter().flatten().map(|b| b.max_abs()).fold(0.0, f64::max);
-                for (a, b) in o.iter().zip(&od) {
-                    assert!((*a - *b).max_abs() <= 1e-12 * a.max_abs().max(1.0));
-                }
-                for (og, (ra, rb)) in jac.iter().zip(&jd).enumerate() {
-                    for (pg, (a, b)) in ra.iter().zip(rb).enumerate().take(3) {
-                        let e = (*a - *b).max_abs();
-                        assert!(e <= 1e-12 * scale, "n={n} g={g} ∂o{og}/∂p{pg}: {e:e}");
+    fn closed_form_point_jacobian_is_the_dual_one() {
+        for scheme in [Scheme::Ep, Scheme::Ed] {
+            for n in 2..=4 {
+                let (el, state, layout) = fixture(n, scheme);
+                let c = ctx(layout, &state);
+                let y: Vec<f64> = (0..layout.n_unknowns())
+                    .map(|i| 0.15 * ((i as f64) * 1.3 + 0.4).sin())
+                    .collect();
+                let q = el.node_quantities::<f64>(&c, &y);
+                for g in 0..el.points.len() {
+                    let p = el.point_inputs(g, &q);
+                    let (o, jac) = closed_point_jacobian(&el, &c, g, &p);
+                    let (od, jd) = dual_point_jacobian::<{ GEO + 6 }>(&el, &c, g, &p);
+                    let scale = jd.iter().flatten().map(|b| b.max_abs()).fold(0.0, f64::max);
+                    for (a, b) in o.iter().zip(&od) {
+                        assert!((*a - *b).max_abs() <= 1e-12 * a.max_abs().max(1.0));
+                    }
+                    for (og, (ra, rb)) in jac.iter().zip(&jd).enumerate() {
+                        for (pg, (a, b)) in ra.iter().zip(rb).enumerate() {
+                            let e = (*a - *b).max_abs();
+                            let at = format!("{scheme:?} n={n} g={g} ∂o{og}/∂p{pg}");
+                            assert!(e <= 1e-12 * scale, "{at}: {e:e}");
+                        }
                     }
                 }
             }

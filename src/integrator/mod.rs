@@ -27,7 +27,7 @@ const STALE_ITERATIONS: f64 = 5.0;
 
 /// Which LU factors are in hand.
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum Factors {
+pub enum Factors {
     /// Of the assembled Newton matrix.
     Exact,
     /// ED only: of the complex EP-sized system equivalent to it (see [`ed_decoupled`]).
@@ -345,10 +345,26 @@ impl Integrator {
     /// One Newton iteration from the current unknowns: assemble residual and tangent, factor
     /// (numeric only), solve, update. Returns the residual norm before the update.
     pub fn newton_iteration(&mut self, sys: &System, ctx: &StepCtx) -> Result<f64, String> {
-        self.assemble(sys, ctx, true);
+        self.newton_iteration_with(sys, ctx, Factors::Exact)
+    }
+
+    /// [`Integrator::newton_iteration`] with the tangent factored as `factors` (ED's decoupled
+    /// system is what modified Newton factors by default).
+    pub fn newton_iteration_with(
+        &mut self,
+        sys: &System,
+        ctx: &StepCtx,
+        factors: Factors,
+    ) -> Result<f64, String> {
+        self.assemble_tangent(sys, ctx, factors);
         let (rn, _) = inf_norm(&self.res);
-        self.solve_update(Factors::Exact)?;
+        self.solve_update(factors)?;
         Ok(rn)
+    }
+
+    /// Assembles the residual and the tangent entries `factors` read (benchmarks).
+    pub fn assemble_tangent(&mut self, sys: &System, ctx: &StepCtx, factors: Factors) {
+        self.assemble_for(sys, ctx, Some(factors));
     }
 
     /// All numeric LU factorizations so far (of the Newton matrix and of ED's decoupled
@@ -382,9 +398,16 @@ impl Integrator {
         self.decoupled_backoff = 1 << self.decoupled_misses.min(4);
     }
 
-    /// Factors the assembled tangent (symbolic analysis reused), as the exact matrix or as
-    /// ED's decoupled system, and applies the update.
+    /// Factors the assembled tangent and applies the update.
     fn solve_update(&mut self, factors: Factors) -> Result<(), String> {
+        self.factor_tangent(factors)?;
+        self.back_substitute();
+        Ok(())
+    }
+
+    /// Factors the assembled tangent (symbolic analysis reused) as the exact matrix or as
+    /// ED's decoupled system.
+    pub fn factor_tangent(&mut self, factors: Factors) -> Result<(), String> {
         self.factored_for = None;
         debug_assert!(factors == Factors::Decoupled || self.values_exact);
         match factors {
@@ -404,17 +427,22 @@ impl Integrator {
             }
         }
         self.factors = factors;
-        self.back_substitute();
         Ok(())
+    }
+
+    /// The update for the residual in `res` with the factors in hand, left in `res`
+    /// (benchmarks).
+    pub fn solve_residual(&mut self) {
+        match (self.factors, self.decoupled.as_mut()) {
+            (Factors::Decoupled, Some(d)) => d.solve(&mut self.res),
+            _ => self.matrix.solve(&mut self.res),
+        }
     }
 
     /// Applies the Newton update from the residual in `res` with the LU factors in hand (the
     /// update stays in `res`).
     fn back_substitute(&mut self) {
-        match (self.factors, self.decoupled.as_mut()) {
-            (Factors::Decoupled, Some(d)) => d.solve(&mut self.res),
-            _ => self.matrix.solve(&mut self.res),
-        }
+        self.solve_residual();
         self.solves += 1;
         for (y, d) in self.y.iter_mut().zip(self.res.iter()) {
             *y -= d;
