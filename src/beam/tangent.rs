@@ -209,15 +209,20 @@ fn closed_point_jacobian(
     g: usize,
     p: &[V3<f64>; P_GROUPS],
 ) -> ([V3<f64>; O_GROUPS], [[B3; P_GROUPS]; O_GROUPS]) {
-    let (o, closed) = closed_point_derivatives(el, ctx, g, p);
     let mut jac = [[B3::zero(); P_GROUPS]; O_GROUPS];
+    if !ctx.ed() {
+        let (o, closed) = closed_point_derivatives::<3>(el, ctx, g, p);
+        for (row, c) in jac.iter_mut().zip(&closed) {
+            row[..3].copy_from_slice(c);
+        }
+        return (o, jac);
+    }
+    let (o, closed) = closed_point_derivatives::<CLOSED_DIRS>(el, ctx, g, p);
     for (row, c) in jac.iter_mut().zip(&closed) {
         row[..3].copy_from_slice(&c[..3]);
     }
-    if ctx.ed() {
-        let d_j: [[B3; 2]; O_GROUPS] = std::array::from_fn(|og| [closed[og][3], closed[og][4]]);
-        velocity_columns(el, ctx, g, p, &d_j, &mut jac);
-    }
+    let d_j: [[B3; 2]; O_GROUPS] = std::array::from_fn(|og| [closed[og][3], closed[og][4]]);
+    velocity_columns(el, ctx, g, p, &d_j, &mut jac);
     (o, jac)
 }
 
@@ -249,22 +254,26 @@ const CLOSED_DIRS: usize = 5;
 ///   triad's variation.
 ///
 /// Returns the outputs, `∂o/∂p` for the geometric inputs and `∂o/∂ε_j` by strain half.
-fn closed_point_derivatives(
+fn closed_point_derivatives<const ND: usize>(
     el: &BeamElement,
     ctx: &StepCtx,
     g: usize,
     p: &[V3<f64>; P_GROUPS],
-) -> ([V3<f64>; O_GROUPS], [[B3; CLOSED_DIRS]; O_GROUPS]) {
+) -> ([V3<f64>; O_GROUPS], [[B3; ND]; O_GROUPS]) {
     let (ed, pt) = (ctx.ed(), &el.points[g]);
+    assert_eq!(
+        ND,
+        if ed { CLOSED_DIRS } else { 3 },
+        "directions of the mode"
+    );
     let (c, w) = (&pt.stiffness, pt.weight);
     let (rho, rho_p) = (&p[1], &p[2]);
     let ps = el.point_kinematics(ctx, g, &p[0], rho, rho_p);
     let o = el.point_outputs_at(ctx, g, &ps, p, &[0.0; 6]);
     let hs = rodrigues_h(rho);
     let (rf_t, rm_t) = (ps.rg_f.transpose(), ps.rm.transpose());
-    let nd = if ed { CLOSED_DIRS } else { 3 };
     // ∂ε_f and ∂ε_j as [strain half][direction].
-    let mut d_f = [[B3::zero(); CLOSED_DIRS]; 2];
+    let mut d_f = [[B3::zero(); ND]; 2];
     d_f[0][0] = rf_t;
     d_f[0][1] = rf_t.mul_m(&ps.xp_f.tilde()).mul_m(&hs);
     d_f[1][1] = rf_t
@@ -273,7 +282,7 @@ fn closed_point_derivatives(
         .scale_f(0.5)
         + rm_t.mul_m(&h_times_gradient(rho, rho_p));
     d_f[1][2] = rm_t.mul_m(&ps.hm);
-    let mut d_j = [[B3::zero(); CLOSED_DIRS]; 2];
+    let mut d_j = [[B3::zero(); ND]; 2];
     let eps_j = if ed {
         let h6 = ctx.h / 6.0;
         let z_e = p[6] + ps.xp_f.cross(&p[7]);
@@ -297,8 +306,8 @@ fn closed_point_derivatives(
     let (n_f, n_m) = (V3([n[0], n[1], n[2]]), V3([n[3], n[4], n[5]]));
     let xm_t = (ps.xp_i + ps.xp_f).scale_f(0.5).tilde();
     let hrm = ps.hm.mul_m(&ps.rm);
-    let mut jac = [[B3::zero(); CLOSED_DIRS]; O_GROUPS];
-    for k in 0..nd {
+    let mut jac = [[B3::zero(); ND]; O_GROUPS];
+    for k in 0..ND {
         let mean = |h: usize| (d_f[h][k] + d_j[h][k]).scale_f(0.5);
         jac[0][k] = ps.rm.mul_m(&wc(0, [mean(0), mean(1)]));
         jac[2][k] = hrm.mul_m(&wc(1, [mean(0), mean(1)]));
@@ -309,13 +318,13 @@ fn closed_point_derivatives(
             .mul_m(&ps.rg_f.mul_v(&n_m).tilde())
             .mul_m(&hs)
             .scale_f(0.5 * w);
-    for k in 0..nd {
+    for k in 0..ND {
         jac[1][k] = B3::zero() - xm_t.mul_m(&jac[0][k]);
     }
     jac[1][0] = jac[1][0] + o[0].tilde().scale_f(0.5);
     if ed {
         let (xi_t, xf_t) = (ps.xp_i.tilde(), ps.xp_f.tilde());
-        for k in 0..nd {
+        for k in 0..ND {
             let jump = |h: usize| (d_f[h][k] - d_j[h][k]).scale_f(-1.0 / 12.0);
             let (dn_f, dn_m) = (wc(0, [jump(0), jump(1)]), wc(1, [jump(0), jump(1)]));
             jac[3][k] = ps.rg_i.mul_m(&dn_f);
@@ -326,7 +335,7 @@ fn closed_point_derivatives(
         }
         jac[6][1] = jac[6][1] - o[6].tilde().mul_m(&hs);
         jac[8][1] = jac[8][1] - o[8].tilde().mul_m(&hs);
-        for k in 0..nd {
+        for k in 0..ND {
             jac[7][k] = B3::zero() - xf_t.mul_m(&jac[6][k]);
         }
         jac[7][0] = jac[7][0] + o[6].tilde();
