@@ -7,9 +7,10 @@
 //! dual numbers costs `⌈n/8⌉` passes over every point (6 for a cubic ED element); here each
 //! point is differentiated once, over its 9 geometric inputs (plus, under ED, the 6 strains of
 //! the j-state, through which its 18 velocity inputs act linearly), and the stages are chained
-//! with 3×3 blocks. An EP step's point Jacobian is in closed form ([`ep_point_jacobian`], half
-//! the element's cost); ED and statics keep the dual pass. The generic finite-difference
-//! harness checks the result like any kernel's.
+//! with 3×3 blocks. A time step's point Jacobian is in closed form
+//! ([`closed_point_derivatives`]: EP's element costs half, ED's four fifths of a dual pass per
+//! point); statics keep the dual pass. The generic finite-difference harness checks the
+//! result like any kernel's.
 
 use super::element::{
     mat6_mul, BeamElement, O_GROUPS, P_FROM, P_GROUPS, Q_GROUPS, U_FROM, U_GROUPS,
@@ -188,7 +189,7 @@ fn chained<const N: usize, const NU: usize, const NQ: usize, const NP: usize, co
 }
 
 /// Point outputs and their Jacobian `∂o/∂p` in 3×3 blocks `[output group][input group]`:
-/// in closed form for an EP step ([`ep_point_jacobian`]), otherwise by one dual pass.
+/// in closed form for a time step ([`closed_point_jacobian`]), by one dual pass in statics.
 fn point_jacobian<const N: usize>(
     el: &BeamElement,
     ctx: &StepCtx,
@@ -246,7 +247,8 @@ const CLOSED_DIRS: usize = 5;
 /// `a = H_s(ρ) δρ` the spatial variation of `R_f = cay(ρ) R_i` (`δR_f = ã R_f`, `H_s` =
 /// [`rodrigues_h`]), `v = Hρ′` and `z_e = v′_f + x′_f × ω_f`:
 /// - `δe_f = R_fᵀ δΔx′ + R_fᵀ x̃′_f a`, `δκ_f = ½ R_fᵀ ṽ a + R_mᵀ ∂(Hρ′)/∂ρ δρ + R_mᵀ H δρ′`;
-/// - ED: `δε_j = h/6 (R_fᵀ ω̃_f δΔx′ − R_fᵀ z̃_e a, −R_fᵀ ṽ′ω_f a) + δε_j^seed`;
+/// - ED: `δε_j = h/6 (R_fᵀ ω̃_f δΔx′ − R_fᵀ z̃_e a ; −R_fᵀ ω̃′_f a) + δε_j^seed` (strain halves
+///   `e*` ; `κ`, with `ε_j` from `B_f V_f = (R_fᵀ z_e ; R_fᵀ ω′_f)`);
 /// - D: `n = C ε̄` (ε̄ the mean strain), `δo₀ = w R_m δn_F − ½ w (R_f n_F)~ a`,
 ///   `δo₂ = w H R_m δn_M + w ∂(H R_m n_M)/∂ρ δρ − ½ w H (R_f n_M)~ a`, `δo₁ = −x̃_m δo₀ + ½ õ₀ δΔx′`;
 /// - ED's I and F, `−C(ε_f − ε_j)/12` through `R_i` and `R_f`: `δo₆ = w R_f δn − õ₆ a`,
