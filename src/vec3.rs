@@ -191,6 +191,30 @@ impl<T: Real> M3<T> {
         }
         r
     }
+    /// `self o` for a constant matrix `o` (cheaper than lifting `o` to `T`).
+    #[inline]
+    pub fn mul_mf(&self, o: &M3<f64>) -> Self {
+        let mut r = Self::zero();
+        for i in 0..3 {
+            for j in 0..3 {
+                r.0[i][j] =
+                    self.0[i][0] * o.0[0][j] + self.0[i][1] * o.0[1][j] + self.0[i][2] * o.0[2][j];
+            }
+        }
+        r
+    }
+    /// `a self` for a constant matrix `a`.
+    #[inline]
+    pub fn pre_mul_f(&self, a: &M3<f64>) -> Self {
+        let mut r = Self::zero();
+        for i in 0..3 {
+            for j in 0..3 {
+                r.0[i][j] =
+                    self.0[0][j] * a.0[i][0] + self.0[1][j] * a.0[i][1] + self.0[2][j] * a.0[i][2];
+            }
+        }
+        r
+    }
     pub fn scale(&self, s: T) -> Self {
         let mut r = *self;
         for row in &mut r.0 {
@@ -200,8 +224,15 @@ impl<T: Real> M3<T> {
         }
         r
     }
+    /// `s self` for a constant `s` (cheaper than lifting `s` to `T`).
     pub fn scale_f(&self, s: f64) -> Self {
-        self.scale(T::cst(s))
+        let mut r = *self;
+        for row in &mut r.0 {
+            for v in row {
+                *v = *v * s;
+            }
+        }
+        r
     }
     pub fn trace(&self) -> T {
         self.0[0][0] + self.0[1][1] + self.0[2][2]

@@ -581,12 +581,10 @@ impl Kernel for BeamElement {
             Some((vals, pos)) => super::tangent::evaluate(self, ctx, y, res, vals, pos),
         }
     }
-}
 
-impl BeamElement {
     /// ED: the residual and, of the tangent, only the j-rows the decoupled complex system
     /// reads, written from the EP stiffness (see `tangent::decoupled_surrogate`).
-    pub fn evaluate_decoupled(
+    fn evaluate_decoupled(
         &self,
         ctx: &StepCtx,
         y: &[f64],

@@ -72,14 +72,37 @@ pub trait Kernel {
     {
         eval_kernel(self, ctx, y, res, jac)
     }
+    /// ED under modified Newton: the residual and, of the tangent, at least the rows the
+    /// decoupled complex system reads (`integrator::ed_decoupled`: the j-rows' motion
+    /// columns, the f-rows' multiplier columns, the constraint rows' increment columns). A
+    /// kernel may write them from a cheaper surrogate (an EP stiffness); by default they
+    /// are the exact tangent's.
+    fn evaluate_decoupled(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        res: &mut [f64],
+        vals: &mut [f64],
+        pos: &[usize],
+    ) where
+        Self: Sized,
+    {
+        self.evaluate(ctx, y, res, Some((vals, pos)))
+    }
     /// The structurally nonzero entries of the tangent block (row-major), probed at a
-    /// generic state and unknowns `y`. A kernel whose block depends on where the step goes
-    /// (a sliding joint's contact point changing element) covers every case it allows.
+    /// generic state and unknowns `y`: of the exact tangent and, under ED, of the decoupled
+    /// evaluation's. A kernel whose block depends on where the step goes (a sliding joint's
+    /// contact point changing element) covers every case it allows.
     fn structure(&self, ctx: &StepCtx, y: &[f64]) -> Vec<bool>
     where
         Self: Sized,
     {
-        block_structure(self, ctx, y)
+        let mut mask = block_structure(self, ctx, y);
+        if ctx.ed() {
+            let decoupled = decoupled_structure(self, ctx, y);
+            mask.iter_mut().zip(decoupled).for_each(|(a, b)| *a |= b);
+        }
+        mask
     }
 }
 
@@ -178,6 +201,17 @@ pub fn block_structure<K: Kernel>(k: &K, ctx: &StepCtx, y: &[f64]) -> Vec<bool> 
     let mut vals = vec![0.0; n * n];
     let mut res = vec![0.0; y.len()];
     k.evaluate(ctx, y, &mut res, Some((&mut vals, &pos)));
+    let scale = vals.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    vals.iter().map(|v| v.abs() > 1e-13 * scale).collect()
+}
+
+/// The nonzero entries [`Kernel::evaluate_decoupled`] writes (row-major) at `y`.
+pub fn decoupled_structure<K: Kernel>(k: &K, ctx: &StepCtx, y: &[f64]) -> Vec<bool> {
+    let n = k.unknowns().len();
+    let pos: Vec<usize> = (0..n * n).collect();
+    let mut vals = vec![0.0; n * n];
+    let mut res = vec![0.0; y.len()];
+    k.evaluate_decoupled(ctx, y, &mut res, &mut vals, &pos);
     let scale = vals.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     vals.iter().map(|v| v.abs() > 1e-13 * scale).collect()
 }

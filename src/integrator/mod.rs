@@ -461,10 +461,11 @@ impl Integrator {
     }
 
     /// [`Integrator::assemble`] with the tangent the given factors need, if any: the exact
-    /// one, or for ED's decoupled system only the rows it reads (the beams' from their EP
-    /// stiffness, `BeamElement::evaluate_decoupled`).
+    /// one, or for ED's decoupled system only the rows it reads ([`Kernel::evaluate_decoupled`]:
+    /// the beams' and joints' from their EP stiffness).
     fn assemble_for(&mut self, sys: &System, ctx: &StepCtx, tangent: Option<Factors>) {
         let with_jacobian = tangent.is_some();
+        let decoupled = tangent == Some(Factors::Decoupled);
         if with_jacobian {
             self.values_exact = tangent == Some(Factors::Exact);
         }
@@ -482,9 +483,16 @@ impl Integrator {
         // `$eval(kernel, jac)` evaluates one kernel; the macro records its rows' activity.
         macro_rules! run {
             ($list:expr, $pos:expr) => {
-                run!($list, $pos, |k: &_, jac| Kernel::evaluate(
-                    k, ctx, y, res, jac
-                ))
+                run!(
+                    $list,
+                    $pos,
+                    |k: &_, jac: Option<(&mut [f64], &[usize])>| match jac {
+                        Some((vals, pos)) if decoupled => {
+                            Kernel::evaluate_decoupled(k, ctx, y, res, vals, pos)
+                        }
+                        jac => Kernel::evaluate(k, ctx, y, res, jac),
+                    }
+                )
             };
             ($list:expr, $pos:expr, $eval:expr) => {
                 for (k, p) in $list.iter().zip($pos.iter()) {
@@ -502,18 +510,7 @@ impl Integrator {
             };
         }
         run!(sys.inertias, self.inertia_pos);
-        if tangent == Some(Factors::Decoupled) {
-            run!(
-                sys.beams,
-                self.beam_pos,
-                |k: &crate::beam::element::BeamElement, jac: Option<(&mut [f64], &[usize])>| {
-                    let (vals, pos) = jac.expect("a tangent is assembled");
-                    k.evaluate_decoupled(ctx, y, res, vals, pos)
-                }
-            );
-        } else {
-            run!(sys.beams, self.beam_pos);
-        }
+        run!(sys.beams, self.beam_pos);
         run!(sys.joints, self.joint_pos);
         run!(sys.springs, self.spring_pos);
         run!(sys.drives, self.drive_pos);

@@ -12,12 +12,15 @@ pub struct Clamp {
 }
 
 impl ConstraintLaw for Clamp {
+    fn attachments(&self) -> &[Attachment; 2] {
+        &self.at
+    }
     fn n_rows(&self) -> usize {
         6
     }
     fn value<T: Real>(&self, s: &JointState<T>, out: &mut [T]) {
-        points_value(s, &self.at, out);
-        orientation_value(s, &self.at, &mut out[3..6]);
+        points_value(s, out);
+        orientation_value(s, &mut out[3..6]);
     }
     fn discrete_gradient<T: Real>(
         &self,
@@ -25,12 +28,12 @@ impl ConstraintLaw for Clamp {
         sf: &JointState<T>,
         out: &mut Rows<T>,
     ) {
-        points_gradient(si, sf, &self.at, out, 0);
-        orientation_gradient(si, sf, &self.at, out, 3);
+        points_gradient(si, sf, out, 0);
+        orientation_gradient(si, sf, out, 3);
     }
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
-        points_rate(s, &self.at, out, 0);
-        orientation_rate(s, &self.at, out, 3);
+        points_rate(s, out, 0);
+        orientation_rate(s, out, 3);
     }
 }
 

@@ -14,6 +14,9 @@ pub struct Cylindrical {
 }
 
 impl ConstraintLaw for Cylindrical {
+    fn attachments(&self) -> &[Attachment; 2] {
+        &self.at
+    }
     fn n_rows(&self) -> usize {
         6
     }
@@ -21,9 +24,9 @@ impl ConstraintLaw for Cylindrical {
         2
     }
     fn value<T: Real>(&self, s: &JointState<T>, out: &mut [T]) {
-        slide_value(s, &self.at, 0, out);
-        axis_value(s, &self.at, &mut out[3..5]);
-        out[5] = phi_value(s, &self.at, 1);
+        slide_value(s, 0, out);
+        axis_value(s, &mut out[3..5]);
+        out[5] = phi_value(s, 1);
     }
     fn discrete_gradient<T: Real>(
         &self,
@@ -31,14 +34,14 @@ impl ConstraintLaw for Cylindrical {
         sf: &JointState<T>,
         out: &mut Rows<T>,
     ) {
-        slide_gradient(si, sf, &self.at, 0, out);
-        axis_gradient(si, sf, &self.at, out, 3);
-        phi_gradient(si, sf, &self.at, 1, &mut out[5]);
+        slide_gradient(si, sf, 0, out);
+        axis_gradient(si, sf, out, 3);
+        phi_gradient(si, sf, 1, &mut out[5]);
     }
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
-        slide_rate(s, &self.at, 0, out);
-        axis_rate(s, &self.at, out, 3);
-        phi_rate(s, &self.at, 1, &mut out[5]);
+        slide_rate(s, 0, out);
+        axis_rate(s, out, 3);
+        phi_rate(s, 1, &mut out[5]);
     }
 }
 

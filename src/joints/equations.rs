@@ -22,7 +22,9 @@
 
 use super::MAX_ROWS;
 use crate::elements::{add3, eval_kernel, v3, Kernel, StepCtx};
+use crate::model::Scheme;
 use crate::scalar::{Dual, Real};
+use crate::system::layout::Layout;
 use crate::vec3::{M3, V3};
 
 /// Gradient rows over `NC` columns.
@@ -58,6 +60,10 @@ pub struct ColumnMap<'a, T> {
     pub coords: &'a [CoordColumn],
     /// Local slot of the first multiplier (under ED each row's λ_d follows its λ).
     pub mult: usize,
+    /// Slots per multiplier and per coordinate in the local block: 2 if it was laid out for
+    /// ED (λ_d, the jump follow), else 1 — the block's layout, whichever equations are
+    /// evaluated on it (ED's decoupled surrogate evaluates EP's on an ED block).
+    pub per: usize,
     pub n_rows: usize,
 }
 
@@ -68,20 +74,11 @@ enum At {
 }
 
 impl<T: Real> ColumnMap<'_, T> {
-    fn per(ctx: &StepCtx) -> usize {
-        if ctx.ed() {
-            2
-        } else {
-            1
-        }
-    }
-
     /// Multipliers as forces `sλ` (or `sλ_d`) from the local block.
     pub fn multipliers(&self, ctx: &StepCtx, y: &[T], jump: bool) -> [T; MAX_ROWS] {
-        let per = Self::per(ctx);
         let mut l = [T::zero(); MAX_ROWS];
         for (r, lr) in l.iter_mut().enumerate().take(self.n_rows) {
-            *lr = y[self.mult + per * r + usize::from(jump)] * ctx.s;
+            *lr = y[self.mult + self.per * r + usize::from(jump)] * ctx.s;
         }
         l
     }
@@ -198,7 +195,7 @@ pub fn add_constraint_equations<T: Real, const NC: usize>(
     res: &mut [T],
 ) {
     let n = map.n_rows;
-    let per = ColumnMap::<T>::per(ctx);
+    let per = map.per;
     let lam = map.multipliers(ctx, y, false);
     let at = if ctx.is_static() { At::End } else { At::Start };
     map.add_forces(terms.b, &lam[..n], at, res);
@@ -251,6 +248,15 @@ pub trait StepEquations<const NC: usize>: Kernel + Sized {
 /// joint under ED: 2×12 + 2×2 + 2×7 = 42).
 const MAX_SPLIT_LOCAL: usize = 44;
 
+/// What [`split_pass`] writes of the tangent.
+#[derive(Clone, Copy, PartialEq)]
+enum Tangent {
+    /// The exact tangent (and the residual from the same pass).
+    Exact,
+    /// ED's decoupled surrogate (see [`evaluate_constraint_decoupled`]); no residual.
+    Decoupled,
+}
+
 /// Residual and exact tangent of a constraint kernel: a dual pass of width ≥ the number of
 /// geometric unknowns (6 for a joint to the ground, 12–14 between two nodes) instead of
 /// `⌈n/8⌉` passes over all `n` unknowns (3 for an EP revolute joint, 5 under ED).
@@ -267,21 +273,61 @@ pub fn evaluate_constraint<K: StepEquations<NC>, const NC: usize>(
     if k.unknowns().len() > MAX_SPLIT_LOCAL {
         return eval_kernel(k, ctx, y, res, Some((vals, pos)));
     }
+    split(k, ctx, y, (Some(res), vals, pos), Tangent::Exact);
+}
+
+/// ED under modified Newton ([`crate::elements::Kernel::evaluate_decoupled`]): ED's residual,
+/// and the rows the decoupled complex system reads written from EP's equations on the same
+/// increments, as the beams do (`beam::tangent::decoupled_surrogate`): the f-rows' λ columns
+/// `s B^Dᵀ`, the constraint rows' increment columns `s ∂C_f/∂Δ` (both exactly ED's), and on
+/// the j-rows the constraint forces' geometric stiffness `K ≈ 2 ∂(B^Dᵀ sλ)/∂Δ` as a linear
+/// stiffness enters them (`−2K/9` on the increments, `K/18` on the jumps). One EP-sized dual
+/// pass without the rate operators, instead of ED's.
+pub fn evaluate_constraint_decoupled<K: StepEquations<NC>, const NC: usize>(
+    k: &K,
+    ctx: &StepCtx,
+    y: &[f64],
+    res: &mut [f64],
+    vals: &mut [f64],
+    pos: &[usize],
+) {
+    debug_assert!(ctx.ed());
+    if k.unknowns().len() > MAX_SPLIT_LOCAL {
+        return eval_kernel(k, ctx, y, res, Some((vals, pos)));
+    }
+    eval_kernel(k, ctx, y, res, None);
+    let ep = StepCtx {
+        layout: Layout {
+            scheme: Scheme::Ep,
+            ..ctx.layout
+        },
+        ..*ctx
+    };
+    split(k, &ep, y, (None, vals, pos), Tangent::Decoupled);
+}
+
+/// [`split_pass`] with widths and buffers no larger than needed (dual buffers are zeroed on
+/// every call).
+fn split<K: StepEquations<NC>, const NC: usize>(
+    k: &K,
+    ctx: &StepCtx,
+    y: &[f64],
+    out: (Option<&mut [f64]>, &mut [f64], &[usize]),
+    tangent: Tangent,
+) {
     let mut slots = [0usize; NC];
     let g = k.geometric_slots(ctx, &mut slots);
     let slots = &slots[..g];
     let small = k.unknowns().len() <= 24;
-    let out = (res, vals, pos);
-    // Widths and buffers no larger than needed: dual buffers are zeroed on every call.
     match (g, small) {
-        (0..=6, true) => split_pass::<K, NC, 6, 24>(k, ctx, y, out, slots),
-        (0..=6, false) => split_pass::<K, NC, 6, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots),
-        (7, _) => split_pass::<K, NC, 7, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots),
-        (8..=12, true) => split_pass::<K, NC, 12, 24>(k, ctx, y, out, slots),
-        (8..=12, false) => split_pass::<K, NC, 12, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots),
-        (13, true) => split_pass::<K, NC, 13, 24>(k, ctx, y, out, slots),
-        (13, false) => split_pass::<K, NC, 13, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots),
-        _ => split_pass::<K, NC, 14, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots),
+        (0..=6, true) => split_pass::<K, NC, 6, 24>(k, ctx, y, out, slots, tangent),
+        (0..=6, false) => split_pass::<K, NC, 6, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots, tangent),
+        (7, _) => split_pass::<K, NC, 7, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots, tangent),
+        (8..=12, true) => split_pass::<K, NC, 12, 24>(k, ctx, y, out, slots, tangent),
+        (8..=12, false) => split_pass::<K, NC, 12, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots, tangent),
+        (13, true) => split_pass::<K, NC, 13, 24>(k, ctx, y, out, slots, tangent),
+        (13, false) => split_pass::<K, NC, 13, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots, tangent),
+        _ => split_pass::<K, NC, 14, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots, tangent),
     }
 }
 
@@ -291,8 +337,9 @@ fn split_pass<K: StepEquations<NC>, const NC: usize, const W: usize, const M: us
     k: &K,
     ctx: &StepCtx,
     y: &[f64],
-    (res, vals, pos): (&mut [f64], &mut [f64], &[usize]),
+    (res, vals, pos): (Option<&mut [f64]>, &mut [f64], &[usize]),
     slots: &[usize],
+    tangent: Tangent,
 ) {
     assert!(
         slots.len() <= W,
@@ -308,6 +355,8 @@ fn split_pass<K: StepEquations<NC>, const NC: usize, const W: usize, const M: us
         yd[l].du[d] = 1.0;
     }
     let mut rd = [Dual::<W>::constant(0.0); M];
+    // Each motion row's (and column's) jump slot, for the decoupled surrogate.
+    let mut jump_of = [None; M];
     let (yd, rd) = (&yd[..n], &mut rd[..n]);
     k.with_equations(ctx, yd, |map, terms| {
         add_constraint_equations(ctx, map, terms, yd, rd);
@@ -325,11 +374,22 @@ fn split_pass<K: StepEquations<NC>, const NC: usize, const W: usize, const M: us
         );
         for (v, m) in nodes.iter_mut().zip(map.nodes) {
             *v = m.values();
+            if let Some(j) = m.jump {
+                for c in 0..6 {
+                    jump_of[m.delta + c] = Some(j + c);
+                }
+            }
+        }
+        if map.per == 2 {
+            for c in map.coords {
+                jump_of[c.slot] = Some(c.slot + 1);
+            }
         }
         let map_re = ColumnMap {
             nodes: &nodes[..nn],
             coords: map.coords,
             mult: map.mult,
+            per: map.per,
             n_rows: map.n_rows,
         };
         let b = grad_values(terms.b);
@@ -343,10 +403,26 @@ fn split_pass<K: StepEquations<NC>, const NC: usize, const W: usize, const M: us
         };
         add_linear_columns(ctx, &map_re, &terms_re, n, vals, pos);
     });
+    if let Some(res) = res {
+        for (i, r) in rd.iter().enumerate() {
+            res[idx[i]] += r.re;
+        }
+    }
     for (i, r) in rd.iter().enumerate() {
-        res[idx[i]] += r.re;
-        for (d, &l) in slots.iter().enumerate() {
-            vals[pos[i * n + l]] += r.du[d];
+        match (tangent, jump_of[i]) {
+            (Tangent::Decoupled, Some(ji)) => {
+                for (d, &l) in slots.iter().enumerate() {
+                    let v = r.du[d];
+                    let jl = jump_of[l].expect("a geometric slot has a jump under ED");
+                    vals[pos[ji * n + l]] -= (4.0 / 9.0) * v;
+                    vals[pos[ji * n + jl]] += v / 9.0;
+                }
+            }
+            _ => {
+                for (d, &l) in slots.iter().enumerate() {
+                    vals[pos[i * n + l]] += r.du[d];
+                }
+            }
         }
     }
 }
@@ -418,7 +494,7 @@ pub fn add_linear_columns<const NC: usize>(
     pos: &[usize],
 ) {
     let s = ctx.s;
-    let per = ColumnMap::<f64>::per(ctx);
+    let per = map.per;
     let at = if ctx.is_static() { At::End } else { At::Start };
     let mut put = |row: usize, col: usize, v: f64| vals[pos[row * n + col]] += v;
     for r in 0..map.n_rows {

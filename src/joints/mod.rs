@@ -37,13 +37,58 @@ pub const NCOL: usize = 12 + MAX_COORDS;
 
 pub type Rows<T> = [[T; NCOL]; MAX_ROWS];
 
-/// The configuration seen by a joint: both sides' node positions and rotations and the
-/// joint's coordinates.
+/// The configuration seen by a joint: both sides' node positions and rotations, the spatial
+/// attachment frames they carry, and the joint's coordinates.
 #[derive(Clone, Copy, Debug)]
 pub struct JointState<T> {
     pub x: [V3<T>; 2],
     pub r: [M3<T>; 2],
     pub q: [T; MAX_COORDS],
+    /// Each side's attachment triad in space, `R_k A_k`: its columns are the unit vectors
+    /// `e_αᵏ` every law is written with (formed once per state, not once per use).
+    pub e: [M3<T>; 2],
+    /// Each side's attachment arm in space, `R_k p_k`: the attachment point is `x_k + arm_k`.
+    pub arm: [V3<T>; 2],
+}
+
+impl<T: Real> JointState<T> {
+    /// The state of sides at `x`, `r` (coordinates `q`) carrying the attachments `at`.
+    pub fn new(x: [V3<T>; 2], r: [M3<T>; 2], q: [T; MAX_COORDS], at: &[Attachment; 2]) -> Self {
+        let mut s = JointState {
+            x,
+            r,
+            q,
+            e: [M3::identity(); 2],
+            arm: [V3::zero(); 2],
+        };
+        for k in 0..2 {
+            s.set_side(k, x[k], r[k], &at[k]);
+        }
+        s
+    }
+
+    /// Moves side `k` to `x`, `r` (its attachment frame with it).
+    pub fn set_side(&mut self, k: usize, x: V3<T>, r: M3<T>, at: &Attachment) {
+        self.x[k] = x;
+        self.r[k] = r;
+        self.e[k] = r.mul_mf(&at.triad);
+        self.arm[k] = r.mul_vf(&at.offset);
+    }
+}
+
+impl JointState<f64> {
+    /// The same state as constants of `T`.
+    pub fn lift<T: Real>(&self) -> JointState<T> {
+        let v = |a: &[V3<f64>; 2]| [V3::from_f64(a[0]), V3::from_f64(a[1])];
+        let m = |a: &[M3<f64>; 2]| [M3::from_f64(&a[0]), M3::from_f64(&a[1])];
+        JointState {
+            x: v(&self.x),
+            r: m(&self.r),
+            q: self.q.map(T::cst),
+            e: m(&self.e),
+            arm: v(&self.arm),
+        }
+    }
 }
 
 /// Attachment of a joint to a node: a point and a triad fixed to the node (in its triad).
@@ -54,6 +99,8 @@ pub struct Attachment {
 }
 
 pub trait ConstraintLaw {
+    /// The law's attachments to its two sides (the frames its states carry).
+    fn attachments(&self) -> &[Attachment; 2];
     fn n_rows(&self) -> usize;
     fn n_coords(&self) -> usize {
         0
@@ -92,22 +139,10 @@ macro_rules! dispatch {
     };
 }
 
-impl JointLaw {
-    /// The joint's attachments to its two sides.
-    pub fn attachments(&self) -> &[Attachment; 2] {
-        match self {
-            JointLaw::Spherical(j) => &j.at,
-            JointLaw::Revolute(j) => &j.at,
-            JointLaw::Universal(j) => &j.at,
-            JointLaw::Clamp(j) => &j.at,
-            JointLaw::Prismatic(j) => &j.at,
-            JointLaw::Cylindrical(j) => &j.at,
-            JointLaw::Screw(j) => &j.cylinder.at,
-        }
-    }
-}
-
 impl ConstraintLaw for JointLaw {
+    fn attachments(&self) -> &[Attachment; 2] {
+        dispatch!(self, j => j.attachments())
+    }
     fn n_rows(&self) -> usize {
         dispatch!(self, j => j.n_rows())
     }
@@ -219,6 +254,16 @@ impl Kernel for Joint {
     ) {
         each_joint!(self, j => j.evaluate(ctx, y, res, jac))
     }
+    fn evaluate_decoupled(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        res: &mut [f64],
+        vals: &mut [f64],
+        pos: &[usize],
+    ) {
+        each_joint!(self, j => j.evaluate_decoupled(ctx, y, res, vals, pos))
+    }
 }
 
 /// One side of a joint: a node with unknowns, or the ground (a fixed pose).
@@ -250,6 +295,8 @@ pub struct JointKernel {
     slots: [SideSlots; 2],
     coord_slot: usize,
     mult_slot: usize,
+    /// Slots per coordinate and per multiplier: 2 under ED (the jump, λ_d follow), else 1.
+    per: usize,
 }
 
 fn zero_rows<T: Real>() -> Rows<T> {
@@ -303,6 +350,7 @@ impl JointKernel {
             slots,
             coord_slot,
             mult_slot,
+            per: if ed { 2 } else { 1 },
         }
     }
 
@@ -310,61 +358,51 @@ impl JointKernel {
         self.law.n_rows()
     }
 
-    fn per(ctx: &StepCtx) -> usize {
-        if ctx.ed() {
-            2
-        } else {
-            1
-        }
-    }
-
-    /// Start state (as `T`) of the joint.
-    fn state_i<T: Real>(&self, ctx: &StepCtx) -> JointState<T> {
-        let mut s = JointState {
-            x: [V3::zero(); 2],
-            r: [M3::identity(); 2],
-            q: [T::zero(); MAX_COORDS],
-        };
+    /// Start state of the joint (a constant of the step).
+    fn state_i(&self, ctx: &StepCtx) -> JointState<f64> {
+        let mut x = [V3::zero(); 2];
+        let mut r = [M3::identity(); 2];
         for (k, side) in self.sides.iter().enumerate() {
-            let (x, r) = match side {
+            (x[k], r[k]) = match side {
                 Side::Node(a) => (ctx.state.nodes[*a].x, ctx.state.nodes[*a].r),
                 Side::Ground { x, r } => (*x, *r),
             };
-            s.x[k] = V3::from_f64(x);
-            s.r[k] = M3::from_f64(&r);
         }
+        let mut q = [0.0; MAX_COORDS];
         for (c, &g) in self.coords.iter().enumerate() {
-            s.q[c] = T::cst(ctx.state.coords[g]);
+            q[c] = ctx.state.coords[g];
         }
-        s
+        JointState::new(x, r, q, self.law.attachments())
     }
 
-    /// End state from the local increments; also returns the material `r` of each side.
+    /// End state from the local increments, starting from `si` (`start` is `si` as `T`);
+    /// also returns the material `r` of each side.
     fn state_f<T: Real>(
         &self,
-        ctx: &StepCtx,
-        si: &JointState<T>,
+        si: &JointState<f64>,
+        start: &JointState<T>,
         y: &[T],
     ) -> (JointState<T>, [V3<T>; 2]) {
-        let mut sf = *si;
+        let mut sf = *start;
         let mut rs = [V3::zero(); 2];
+        let at = self.law.attachments();
         for k in 0..2 {
             if let Some(d) = self.slots[k].delta {
-                sf.x[k] = si.x[k] + v3(y, d);
                 rs[k] = v3(y, d + 3);
-                sf.r[k] = si.r[k].mul_m(&cayley(&rs[k]));
+                let x = start.x[k] + v3(y, d);
+                sf.set_side(k, x, cayley(&rs[k]).pre_mul_f(&si.r[k]), &at[k]);
             }
         }
-        let per = Self::per(ctx);
+        let per = self.per;
         for c in 0..self.coords.len() {
-            sf.q[c] = si.q[c] + y[self.coord_slot + per * c];
+            sf.q[c] = start.q[c] + y[self.coord_slot + per * c];
         }
         (sf, rs)
     }
 
     /// Current multipliers (physical constraint forces `λ = s μ`) from a local block.
     fn multipliers<T: Real>(&self, ctx: &StepCtx, y: &[T], jump: bool) -> [T; MAX_ROWS] {
-        let per = Self::per(ctx);
+        let per = self.per;
         let mut l = [T::zero(); MAX_ROWS];
         for (r, lr) in l.iter_mut().enumerate().take(self.n_rows()) {
             *lr = y[self.mult_slot + per * r + usize::from(jump)] * ctx.s;
@@ -385,11 +423,10 @@ impl JointKernel {
     #[allow(clippy::type_complexity)]
     fn columns<T: Real>(
         &self,
-        ctx: &StepCtx,
         si: &JointState<T>,
         sf: &JointState<T>,
     ) -> ([NodeColumns<T>; 2], usize, [CoordColumn; MAX_COORDS]) {
-        let per = Self::per(ctx);
+        let per = self.per;
         let none = NodeColumns {
             col: 0,
             delta: 0,
@@ -429,8 +466,8 @@ impl JointKernel {
         let attach2 = &at2.offset;
         let buf = self.gather(y);
         let yl = &buf[..self.unknowns.len()];
-        let si = self.state_i::<f64>(ctx);
-        let (sf, _) = self.state_f(ctx, &si, yl);
+        let si = self.state_i(ctx);
+        let (sf, _) = self.state_f(&si, &si, yl);
         let mut b = zero_rows::<f64>();
         if ctx.is_static() {
             self.law.rate(&sf, &mut b);
@@ -468,8 +505,8 @@ impl JointKernel {
     pub fn step_work(&self, ctx: &StepCtx, y: &[f64]) -> f64 {
         let buf = self.gather(y);
         let yl = &buf[..self.unknowns.len()];
-        let si = self.state_i::<f64>(ctx);
-        let (sf, rs) = self.state_f(ctx, &si, yl);
+        let si = self.state_i(ctx);
+        let (sf, rs) = self.state_f(&si, &si, yl);
         let mut b = zero_rows::<f64>();
         self.law.discrete_gradient(&si, &sf, &mut b);
         let lam = self.multipliers(ctx, yl, false);
@@ -496,8 +533,8 @@ impl JointKernel {
     pub fn violation(&self, ctx: &StepCtx, y: &[f64]) -> [f64; MAX_ROWS] {
         let buf = self.gather(y);
         let yl = &buf[..self.unknowns.len()];
-        let si = self.state_i::<f64>(ctx);
-        let (sf, _) = self.state_f(ctx, &si, yl);
+        let si = self.state_i(ctx);
+        let (sf, _) = self.state_f(&si, &si, yl);
         let mut c = [0.0; MAX_ROWS];
         self.law.value(&sf, &mut c);
         c
@@ -537,19 +574,13 @@ impl JointKernel {
             Side::Node(a) => (state.nodes[a].x, state.nodes[a].r),
             Side::Ground { x, r } => (x, r),
         };
-        let mut s = JointState {
-            x: [V3::zero(); 2],
-            r: [M3::identity(); 2],
-            q: [0.0; MAX_COORDS],
-        };
-        for k in 0..2 {
-            let (x, r) = ctx_nodes(k);
-            s.x[k] = x;
-            s.r[k] = r;
-        }
+        let (x0, r0) = ctx_nodes(0);
+        let (x1, r1) = ctx_nodes(1);
+        let mut q = [0.0; MAX_COORDS];
         for (c, &g) in self.coords.iter().enumerate() {
-            s.q[c] = state.coords[g];
+            q[c] = state.coords[g];
         }
+        let s = JointState::new([x0, x1], [r0, r1], q, self.law.attachments());
         let mut b = zero_rows();
         self.law.rate(&s, &mut b);
         (b, s)
@@ -574,10 +605,21 @@ impl Kernel for JointKernel {
     ) {
         equations::evaluate_constraint(self, ctx, y, res, jac)
     }
+
+    fn evaluate_decoupled(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        res: &mut [f64],
+        vals: &mut [f64],
+        pos: &[usize],
+    ) {
+        equations::evaluate_constraint_decoupled(self, ctx, y, res, vals, pos)
+    }
 }
 
 impl StepEquations<NCOL> for JointKernel {
-    fn geometric_slots(&self, ctx: &StepCtx, out: &mut [usize; NCOL]) -> usize {
+    fn geometric_slots(&self, _ctx: &StepCtx, out: &mut [usize; NCOL]) -> usize {
         let mut g = 0;
         for d in self.slots.iter().filter_map(|s| s.delta) {
             for c in 0..6 {
@@ -586,7 +628,7 @@ impl StepEquations<NCOL> for JointKernel {
             }
         }
         for c in 0..self.coords.len() {
-            out[g] = self.coord_slot + Self::per(ctx) * c;
+            out[g] = self.coord_slot + self.per * c;
             g += 1;
         }
         g
@@ -599,13 +641,15 @@ impl StepEquations<NCOL> for JointKernel {
         f: impl FnOnce(&ColumnMap<T>, &ConstraintTerms<T, NCOL>) -> R,
     ) -> R {
         let n = self.n_rows();
-        let si = self.state_i::<T>(ctx);
-        let (sf, _) = self.state_f(ctx, &si, y);
-        let (blocks, nb, coords) = self.columns(ctx, &si, &sf);
+        let si64 = self.state_i(ctx);
+        let si = si64.lift::<T>();
+        let (sf, _) = self.state_f(&si64, &si, y);
+        let (blocks, nb, coords) = self.columns(&si, &sf);
         let map = ColumnMap {
             nodes: &blocks[..nb],
             coords: &coords[..self.coords.len()],
             mult: self.mult_slot,
+            per: self.per,
             n_rows: n,
         };
         let mut c = [T::zero(); MAX_ROWS];
@@ -620,7 +664,7 @@ impl StepEquations<NCOL> for JointKernel {
         let rates = ctx.ed().then(|| {
             // B(q_i) is a constant of the step: evaluated in f64.
             let mut bi = zero_rows::<f64>();
-            self.law.rate(&self.state_i::<f64>(ctx), &mut bi);
+            self.law.rate(&si64, &mut bi);
             let mut b_i = zero_rows::<T>();
             for (row, src) in b_i.iter_mut().zip(&bi).take(n) {
                 for (v, x) in row.iter_mut().zip(src) {
@@ -662,20 +706,21 @@ pub mod law_tests {
         ]
     }
 
-    pub fn random_state(seed: f64, nq: usize) -> JointState<f64> {
+    pub fn random_state(seed: f64, nq: usize, at: &[Attachment; 2]) -> JointState<f64> {
         let s = |k: f64| ((seed + k) * 12.9898).sin() * 1.3;
         let mut q = [0.0; MAX_COORDS];
         for (c, qc) in q.iter_mut().enumerate().take(nq) {
             *qc = s(20.0 + c as f64);
         }
-        JointState {
-            x: [V3([s(1.0), s(2.0), s(3.0)]), V3([s(4.0), s(5.0), s(6.0)])],
-            r: [
+        JointState::new(
+            [V3([s(1.0), s(2.0), s(3.0)]), V3([s(4.0), s(5.0), s(6.0)])],
+            [
                 exp_map(&V3([s(7.0), s(8.0), s(9.0)])),
                 exp_map(&V3([s(10.0), s(11.0), s(12.0)])),
             ],
             q,
-        }
+            at,
+        )
     }
 
     /// Checks a law; returns (discrete-gradient error, rate error).
@@ -685,16 +730,17 @@ pub mod law_tests {
         let mut worst_d = 0.0f64;
         let mut worst_r = 0.0f64;
         for trial in 0..20 {
-            let si = random_state(trial as f64, nq);
+            let at = law.attachments();
+            let si = random_state(trial as f64, nq, at);
             // Large increments (rotations up to ~100°) to show the identity is exact, not a
             // linearisation.
-            let inc = random_state(100.0 + trial as f64, nq);
+            let inc = random_state(100.0 + trial as f64, nq, at);
             let rho = [inc.x[0].scale_f(0.8), inc.x[1].scale_f(0.8)];
             let dx = [inc.x[1], inc.x[0]];
             let mut sf = si;
             for k in 0..2 {
-                sf.x[k] = si.x[k] + dx[k];
-                sf.r[k] = cayley(&rho[k]).mul_m(&si.r[k]);
+                let r = cayley(&rho[k]).mul_m(&si.r[k]);
+                sf.set_side(k, si.x[k] + dx[k], r, &at[k]);
             }
             for c in 0..nq {
                 sf.q[c] = si.q[c] + inc.q[c];
@@ -717,15 +763,15 @@ pub mod law_tests {
                 worst_d = worst_d.max((cf[r] - ci[r] - bd).abs());
             }
             // Rate: Ċ along x(t) = x + t v, R(t) = exp(t ω̃) R, q(t) = q + t q̇.
-            let vel = random_state(200.0 + trial as f64, nq);
+            let vel = random_state(200.0 + trial as f64, nq, at);
             let mut rb = zero_rows::<f64>();
             law.rate(&si, &mut rb);
             let eps = 1e-6;
             let moved = |t: f64| {
                 let mut s = si;
                 for k in 0..2 {
-                    s.x[k] = si.x[k] + vel.x[k].scale_f(t);
-                    s.r[k] = exp_map(&vel.x[1 - k].scale_f(t)).mul_m(&si.r[k]);
+                    let r = exp_map(&vel.x[1 - k].scale_f(t)).mul_m(&si.r[k]);
+                    s.set_side(k, si.x[k] + vel.x[k].scale_f(t), r, &at[k]);
                 }
                 for c in 0..nq {
                     s.q[c] = si.q[c] + t * vel.q[c];
@@ -851,6 +897,144 @@ mod kernel_tests {
                     let e = tangent_error(&k, &ctx, &y);
                     // Same bound as the other kernels: FD truncation and round-off, relative to |J|.
                     assert!(e < 1e-7, "{kind}: tangent error {e:e}");
+                }
+            }
+        }
+    }
+
+    /// ED's decoupled evaluation of a joint ([`equations::evaluate_constraint_decoupled`]) is
+    /// ED's residual with EP's tangent of the same joint at the same increments and
+    /// multipliers mapped into the rows the decoupled system reads: the f-rows' λ columns and
+    /// the constraint rows' increment columns as they are, the f-rows' increment columns as
+    /// `−4/9` of them on the j-rows' increment columns and `1/9` on their jump columns; nothing
+    /// else. Every law, to a node and to the ground, at a generic state with loaded
+    /// multipliers.
+    #[test]
+    fn decoupled_surrogate_is_the_ep_tangent_mapped() {
+        let node = |k: f64| NodeState {
+            x: V3([0.1 * k, -0.2, 0.3 * k]),
+            r: exp_map(&V3([0.4 * k, -0.2, 0.9])),
+            v: V3([1.0, -2.0 * k, 0.5]),
+            w: V3([0.3, 5.0, -k]),
+        };
+        let state = State {
+            t: 0.1,
+            nodes: vec![node(1.0), node(-0.7)],
+            coords: vec![0.3, -1.1],
+            coord_rates: vec![-0.8, 0.6],
+            lambda: vec![],
+            history: vec![],
+        };
+        #[derive(Clone, Copy, PartialEq)]
+        enum Kind {
+            Delta,
+            Jump,
+            Lambda,
+            LambdaD,
+        }
+        for law in laws() {
+            for ground in [false, true] {
+                let (nq, nr) = (law.n_coords(), law.n_rows());
+                let ed = Layout::new(Scheme::Ed, 2, nq, nr);
+                let ep = Layout::new(Scheme::Ep, 2, nq, nr);
+                // Each ED unknown's kind and its EP twin.
+                let mut twin = vec![(Kind::Delta, 0); ed.n_unknowns()];
+                for a in 0..2 {
+                    for c in 0..6 {
+                        twin[ed.node_delta(a) + c] = (Kind::Delta, ep.node_delta(a) + c);
+                        twin[ed.node_jump(a) + c] = (Kind::Jump, ep.node_delta(a) + c);
+                    }
+                }
+                for c in 0..nq {
+                    twin[ed.coord_delta(c)] = (Kind::Delta, ep.coord_delta(c));
+                    twin[ed.coord_jump(c)] = (Kind::Jump, ep.coord_delta(c));
+                }
+                for r in 0..nr {
+                    twin[ed.mult(r)] = (Kind::Lambda, ep.mult(r));
+                    twin[ed.mult_jump(r)] = (Kind::LambdaD, ep.mult(r));
+                }
+                let sides = if ground {
+                    [
+                        Side::Ground {
+                            x: V3([0.5, 0.0, 0.1]),
+                            r: exp_map(&V3([0.2, 0.1, 0.0])),
+                        },
+                        Side::Node(1),
+                    ]
+                } else {
+                    [Side::Node(0), Side::Node(1)]
+                };
+                let kernel = |layout: &Layout| {
+                    JointKernel::new("j".into(), law.clone(), sides, (0..nq).collect(), 0, layout)
+                };
+                let ctx = |layout: Layout| StepCtx {
+                    layout,
+                    h: 0.01,
+                    t_i: 0.1,
+                    t_f: 0.11,
+                    s: 30.0,
+                    state: &state,
+                    gravity: V3([0.0; 3]),
+                    statics: None,
+                };
+                let y_ed: Vec<f64> = (0..ed.n_unknowns())
+                    .map(|i| 0.02 * ((i as f64) * 1.3).sin() + 0.5 * f64::from(i >= ed.mult(0)))
+                    .collect();
+                let mut y_ep = vec![0.0; ep.n_unknowns()];
+                for (i, &(kind, j)) in twin.iter().enumerate() {
+                    if kind == Kind::Delta || kind == Kind::Lambda {
+                        y_ep[j] = y_ed[i];
+                    }
+                }
+                // Dense global tangents through identity positions.
+                let dense = |k: &JointKernel| -> (Vec<usize>, usize) {
+                    let n = k.unknowns().len();
+                    ((0..n * n).collect(), n)
+                };
+                let k_ep = kernel(&ep);
+                let (pos, n_ep) = dense(&k_ep);
+                let mut j_ep = vec![0.0; n_ep * n_ep];
+                let mut r_ep = vec![0.0; ep.n_unknowns()];
+                k_ep.evaluate(&ctx(ep), &y_ep, &mut r_ep, Some((&mut j_ep, &pos)));
+                let ep_at = |gi: usize, gj: usize| {
+                    let u = k_ep.unknowns();
+                    match (
+                        u.iter().position(|&g| g == gi),
+                        u.iter().position(|&g| g == gj),
+                    ) {
+                        (Some(a), Some(b)) => j_ep[a * n_ep + b],
+                        _ => 0.0,
+                    }
+                };
+                let k_ed = kernel(&ed);
+                let (pos, n) = dense(&k_ed);
+                let mut dec = vec![0.0; n * n];
+                let mut r_dec = vec![0.0; ed.n_unknowns()];
+                k_ed.evaluate_decoupled(&ctx(ed), &y_ed, &mut r_dec, &mut dec, &pos);
+                let mut r_exact = vec![0.0; ed.n_unknowns()];
+                k_ed.evaluate(&ctx(ed), &y_ed, &mut r_exact, None);
+                let kind = format!("{law:?} ground={ground}");
+                assert_eq!(r_dec, r_exact, "{kind}: the residual is ED's");
+                let scale = j_ep.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                let u = k_ed.unknowns();
+                for (a, &gi) in u.iter().enumerate() {
+                    for (b, &gj) in u.iter().enumerate() {
+                        let ((ki, ei), (kj, ej)) = (twin[gi], twin[gj]);
+                        let expected = match (ki, kj) {
+                            (Kind::Delta, Kind::Lambda) | (Kind::Lambda, Kind::Delta) => {
+                                ep_at(ei, ej)
+                            }
+                            (Kind::Jump, Kind::Delta) => -4.0 / 9.0 * ep_at(ei, ej),
+                            (Kind::Jump, Kind::Jump) => ep_at(ei, ej) / 9.0,
+                            _ => 0.0,
+                        };
+                        let got = dec[a * n + b];
+                        // Both from one dual pass over the same arithmetic: round-off only.
+                        assert!(
+                            (got - expected).abs() <= 1e-12 * scale,
+                            "{kind}: row {gi} col {gj}: decoupled {got:e}, expected {expected:e}"
+                        );
+                    }
                 }
             }
         }

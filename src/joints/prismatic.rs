@@ -15,33 +15,35 @@ pub struct Prismatic {
 }
 
 /// Rows 0–2: the separation across and along the axis (Δ is coordinate `qi`).
-pub fn slide_value<T: Real>(s: &JointState<T>, at: &[Attachment; 2], qi: usize, out: &mut [T]) {
-    out[0] = projection_value(s, at, 0);
-    out[1] = projection_value(s, at, 1);
-    out[2] = projection_value(s, at, 2) - s.q[qi];
+pub fn slide_value<T: Real>(s: &JointState<T>, qi: usize, out: &mut [T]) {
+    out[0] = projection_value(s, 0);
+    out[1] = projection_value(s, 1);
+    out[2] = projection_value(s, 2) - s.q[qi];
 }
 
 pub fn slide_gradient<T: Real>(
     si: &JointState<T>,
     sf: &JointState<T>,
-    at: &[Attachment; 2],
     qi: usize,
     out: &mut Rows<T>,
 ) {
     for beta in 0..3 {
-        projection_gradient(si, sf, at, beta, &mut out[beta]);
+        projection_gradient(si, sf, beta, &mut out[beta]);
     }
     out[2][12 + qi] = -T::one();
 }
 
-pub fn slide_rate<T: Real>(s: &JointState<T>, at: &[Attachment; 2], qi: usize, out: &mut Rows<T>) {
+pub fn slide_rate<T: Real>(s: &JointState<T>, qi: usize, out: &mut Rows<T>) {
     for beta in 0..3 {
-        projection_rate(s, at, beta, &mut out[beta]);
+        projection_rate(s, beta, &mut out[beta]);
     }
     out[2][12 + qi] = -T::one();
 }
 
 impl ConstraintLaw for Prismatic {
+    fn attachments(&self) -> &[Attachment; 2] {
+        &self.at
+    }
     fn n_rows(&self) -> usize {
         6
     }
@@ -49,8 +51,8 @@ impl ConstraintLaw for Prismatic {
         1
     }
     fn value<T: Real>(&self, s: &JointState<T>, out: &mut [T]) {
-        slide_value(s, &self.at, 0, out);
-        orientation_value(s, &self.at, &mut out[3..6]);
+        slide_value(s, 0, out);
+        orientation_value(s, &mut out[3..6]);
     }
     fn discrete_gradient<T: Real>(
         &self,
@@ -58,12 +60,12 @@ impl ConstraintLaw for Prismatic {
         sf: &JointState<T>,
         out: &mut Rows<T>,
     ) {
-        slide_gradient(si, sf, &self.at, 0, out);
-        orientation_gradient(si, sf, &self.at, out, 3);
+        slide_gradient(si, sf, 0, out);
+        orientation_gradient(si, sf, out, 3);
     }
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
-        slide_rate(s, &self.at, 0, out);
-        orientation_rate(s, &self.at, out, 3);
+        slide_rate(s, 0, out);
+        orientation_rate(s, out, 3);
     }
 }
 
@@ -85,11 +87,12 @@ mod tests {
             offset: V3([0.0; 3]),
             triad: M3::identity(),
         }; 2];
-        let s = JointState {
-            x: [V3([1.0, 2.0, 3.0]), V3([1.0, 2.0, 3.7])],
-            r: [M3::identity(); 2],
-            q: [0.7; MAX_COORDS],
-        };
+        let s = JointState::new(
+            [V3([1.0, 2.0, 3.0]), V3([1.0, 2.0, 3.7])],
+            [M3::identity(); 2],
+            [0.7; MAX_COORDS],
+            &at,
+        );
         let mut c = [1.0; 6];
         Prismatic { at }.value(&s, &mut c);
         assert!(c.iter().all(|v| v.abs() < 1e-15), "{c:?}");

@@ -3,7 +3,7 @@
 //! (m/rad: the advance per radian of turn, so a full turn advances 2π p).
 
 use super::cylindrical::Cylindrical;
-use super::{ConstraintLaw, JointState, Rows};
+use super::{Attachment, ConstraintLaw, JointState, Rows};
 use crate::scalar::Real;
 
 #[derive(Clone, Debug)]
@@ -14,6 +14,9 @@ pub struct Screw {
 }
 
 impl ConstraintLaw for Screw {
+    fn attachments(&self) -> &[Attachment; 2] {
+        &self.cylinder.at
+    }
     fn n_rows(&self) -> usize {
         7
     }

@@ -61,6 +61,9 @@ pub struct ContactLaw {
 }
 
 impl ConstraintLaw for ContactLaw {
+    fn attachments(&self) -> &[Attachment; 2] {
+        &self.at
+    }
     fn n_rows(&self) -> usize {
         match self.kind {
             SlidingKind::Point => 3,
@@ -69,11 +72,11 @@ impl ConstraintLaw for ContactLaw {
         }
     }
     fn value<T: Real>(&self, s: &JointState<T>, out: &mut [T]) {
-        points_value(s, &self.at, out);
+        points_value(s, out);
         match self.kind {
             SlidingKind::Point => {}
-            SlidingKind::Screw => out[3] = dot_value(s, &self.at, 1, 2), // eq. (34)
-            SlidingKind::Clamp => orientation_value(s, &self.at, &mut out[3..6]),
+            SlidingKind::Screw => out[3] = dot_value(s, 1, 2), // eq. (34)
+            SlidingKind::Clamp => orientation_value(s, &mut out[3..6]),
         }
     }
     fn discrete_gradient<T: Real>(
@@ -82,23 +85,19 @@ impl ConstraintLaw for ContactLaw {
         sf: &JointState<T>,
         out: &mut Rows<T>,
     ) {
-        points_gradient(si, sf, &self.at, out, 0);
+        points_gradient(si, sf, out, 0);
         match self.kind {
             SlidingKind::Point => {}
-            SlidingKind::Screw => {
-                add_rotation_pair(&mut out[3], dot_mid(si, sf, &self.at, 1, 2).0, T::one())
-            }
-            SlidingKind::Clamp => orientation_gradient(si, sf, &self.at, out, 3),
+            SlidingKind::Screw => add_rotation_pair(&mut out[3], dot_mid(si, sf, 1, 2).0, T::one()),
+            SlidingKind::Clamp => orientation_gradient(si, sf, out, 3),
         }
     }
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
-        points_rate(s, &self.at, out, 0);
+        points_rate(s, out, 0);
         match self.kind {
             SlidingKind::Point => {}
-            SlidingKind::Screw => {
-                add_rotation_pair(&mut out[3], dot_h(s, &self.at, 1, 2), T::one())
-            }
-            SlidingKind::Clamp => orientation_rate(s, &self.at, out, 3),
+            SlidingKind::Screw => add_rotation_pair(&mut out[3], dot_h(s, 1, 2), T::one()),
+            SlidingKind::Clamp => orientation_rate(s, out, 3),
         }
     }
 }
@@ -285,6 +284,7 @@ impl StepEquations<SHARE_NC> for NodeShare<'_> {
             nodes: &blocks[..nb],
             coords: &coords,
             mult: mult_slot,
+            per: self.joint.per(),
             n_rows: n,
         };
         let rates = share.rates.as_ref().map(|(a, b)| (a, b));
@@ -462,12 +462,13 @@ impl SlidingJoint {
         }
     }
 
-    fn pair_state<T: Real>(node: (V3<T>, M3<T>), follower: (V3<T>, M3<T>)) -> JointState<T> {
-        JointState {
-            x: [node.0, follower.0],
-            r: [node.1, follower.1],
-            q: [T::zero(); MAX_COORDS],
-        }
+    fn pair_state<T: Real>(&self, node: (V3<T>, M3<T>), follower: (V3<T>, M3<T>)) -> JointState<T> {
+        JointState::new(
+            [node.0, follower.0],
+            [node.1, follower.1],
+            [T::zero(); MAX_COORDS],
+            &self.law.at,
+        )
     }
 
     /// Adds `w·pair` (the pair law's 12 columns: node, follower) into a share's columns.
@@ -519,8 +520,8 @@ impl SlidingJoint {
         fol: [(V3<T>, M3<T>); 2],
     ) -> Share<T> {
         let n = self.n_rows();
-        let si = Self::pair_state(node[0], fol[0]);
-        let sf = Self::pair_state(node[1], fol[1]);
+        let si = self.pair_state(node[0], fol[0]);
+        let sf = self.pair_state(node[1], fol[1]);
         let (mut gi, mut gf) = ([T::zero(); MAX_ROWS], [T::zero(); MAX_ROWS]);
         self.law.value(&si, &mut gi);
         self.law.value(&sf, &mut gf);
@@ -673,6 +674,7 @@ impl SlidingJoint {
             nodes: &cols[..k],
             coords: &coords,
             mult: self.mult_slot,
+            per: self.per(),
             n_rows: self.n_rows(),
         };
         f(&map)
@@ -794,7 +796,7 @@ impl SlidingJoint {
         for (n, h) in w.iter() {
             let node = self.pose::<f64>(state, Side::Node(self.beam_nodes[n]), None, None);
             let mut g = [0.0; MAX_ROWS];
-            self.law.value(&Self::pair_state(node, fol), &mut g);
+            self.law.value(&self.pair_state(node, fol), &mut g);
             for r in 0..self.n_rows() {
                 c[r] += h * g[r];
             }
@@ -817,7 +819,7 @@ impl SlidingJoint {
         for (node_k, h) in w.iter() {
             let a = self.beam_nodes[node_k];
             let node = self.pose::<f64>(state, Side::Node(a), None, None);
-            let s = Self::pair_state(node, fol);
+            let s = self.pair_state(node, fol);
             let mut pair = [[0.0; NCOL]; MAX_ROWS];
             self.law.rate(&s, &mut pair);
             for (r, f) in fv.iter_mut().enumerate().take(n) {
@@ -836,7 +838,7 @@ impl SlidingJoint {
         for (node_k, dh) in dw.iter() {
             let node = self.pose::<f64>(state, Side::Node(self.beam_nodes[node_k]), None, None);
             let mut g = [0.0; MAX_ROWS];
-            self.law.value(&Self::pair_state(node, fol), &mut g);
+            self.law.value(&self.pair_state(node, fol), &mut g);
             for r in 0..n {
                 dzeta[r] += dh * g[r];
             }

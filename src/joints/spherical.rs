@@ -10,11 +10,14 @@ pub struct Spherical {
 }
 
 impl ConstraintLaw for Spherical {
+    fn attachments(&self) -> &[Attachment; 2] {
+        &self.at
+    }
     fn n_rows(&self) -> usize {
         3
     }
     fn value<T: Real>(&self, s: &JointState<T>, out: &mut [T]) {
-        points_value(s, &self.at, out);
+        points_value(s, out);
     }
     fn discrete_gradient<T: Real>(
         &self,
@@ -22,10 +25,10 @@ impl ConstraintLaw for Spherical {
         sf: &JointState<T>,
         out: &mut Rows<T>,
     ) {
-        points_gradient(si, sf, &self.at, out, 0);
+        points_gradient(si, sf, out, 0);
     }
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
-        points_rate(s, &self.at, out, 0);
+        points_rate(s, out, 0);
     }
 }
 

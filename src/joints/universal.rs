@@ -24,6 +24,9 @@ pub struct Universal {
 }
 
 impl ConstraintLaw for Universal {
+    fn attachments(&self) -> &[Attachment; 2] {
+        &self.at
+    }
     fn n_rows(&self) -> usize {
         6
     }
@@ -31,10 +34,10 @@ impl ConstraintLaw for Universal {
         2
     }
     fn value<T: Real>(&self, s: &JointState<T>, out: &mut [T]) {
-        points_value(s, &self.at, out);
-        out[3] = dot_value(s, &self.at, 2, 2);
-        out[4] = angle_value(s, &self.at, 0, PHI1);
-        out[5] = angle_value(s, &self.at, 1, PHI2);
+        points_value(s, out);
+        out[3] = dot_value(s, 2, 2);
+        out[4] = angle_value(s, 0, PHI1);
+        out[5] = angle_value(s, 1, PHI2);
     }
     fn discrete_gradient<T: Real>(
         &self,
@@ -42,17 +45,17 @@ impl ConstraintLaw for Universal {
         sf: &JointState<T>,
         out: &mut Rows<T>,
     ) {
-        points_gradient(si, sf, &self.at, out, 0);
-        let (hm, _) = dot_mid(si, sf, &self.at, 2, 2); // eq. (15)
+        points_gradient(si, sf, out, 0);
+        let (hm, _) = dot_mid(si, sf, 2, 2); // eq. (15)
         add_rotation_pair(&mut out[3], hm, T::one());
-        angle_gradient(si, sf, &self.at, 0, PHI1, &mut out[4]);
-        angle_gradient(si, sf, &self.at, 1, PHI2, &mut out[5]);
+        angle_gradient(si, sf, 0, PHI1, &mut out[4]);
+        angle_gradient(si, sf, 1, PHI2, &mut out[5]);
     }
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
-        points_rate(s, &self.at, out, 0);
-        add_rotation_pair(&mut out[3], dot_h(s, &self.at, 2, 2), T::one());
-        angle_rate(s, &self.at, 0, PHI1, &mut out[4]);
-        angle_rate(s, &self.at, 1, PHI2, &mut out[5]);
+        points_rate(s, out, 0);
+        add_rotation_pair(&mut out[3], dot_h(s, 2, 2), T::one());
+        angle_rate(s, 0, PHI1, &mut out[4]);
+        angle_rate(s, 1, PHI2, &mut out[5]);
     }
 }
 
