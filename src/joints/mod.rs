@@ -834,22 +834,42 @@ mod kernel_tests {
         ]
     }
 
-    #[test]
-    fn joint_tangents_match_finite_differences() {
+    /// Two moving, rotated nodes and two coordinates with rates: a state without symmetry.
+    fn generic_state() -> State {
         let node = |k: f64| NodeState {
             x: V3([0.1 * k, -0.2, 0.3 * k]),
             r: exp_map(&V3([0.4 * k, -0.2, 0.9])),
             v: V3([1.0, -2.0 * k, 0.5]),
             w: V3([0.3, 5.0, -k]),
         };
-        let state = State {
+        State {
             t: 0.1,
             nodes: vec![node(1.0), node(-0.7)],
             coords: vec![0.3, -1.1],
             coord_rates: vec![-0.8, 0.6],
             lambda: vec![],
             history: vec![],
-        };
+        }
+    }
+
+    /// Node 0 and node 1, or a tilted ground pose and node 1.
+    fn generic_sides(ground: bool) -> [Side; 2] {
+        if ground {
+            [
+                Side::Ground {
+                    x: V3([0.5, 0.0, 0.1]),
+                    r: exp_map(&V3([0.2, 0.1, 0.0])),
+                },
+                Side::Node(1),
+            ]
+        } else {
+            [Side::Node(0), Side::Node(1)]
+        }
+    }
+
+    #[test]
+    fn joint_tangents_match_finite_differences() {
+        let state = generic_state();
         // Time steps of both schemes, and static solves (EP layout).
         for (scheme, statics) in [
             (Scheme::Ep, None),
@@ -861,17 +881,7 @@ mod kernel_tests {
                     let nq = law.n_coords();
                     let nr = law.n_rows();
                     let layout = Layout::new(scheme, 2, nq, nr);
-                    let sides = if ground {
-                        [
-                            Side::Ground {
-                                x: V3([0.5, 0.0, 0.1]),
-                                r: exp_map(&V3([0.2, 0.1, 0.0])),
-                            },
-                            Side::Node(1),
-                        ]
-                    } else {
-                        [Side::Node(0), Side::Node(1)]
-                    };
+                    let sides = generic_sides(ground);
                     let kind = format!("{scheme:?} statics={statics:?} {law:?} ground={ground}");
                     let k = JointKernel::new(
                         "j".into(),
@@ -911,20 +921,7 @@ mod kernel_tests {
     /// multipliers.
     #[test]
     fn decoupled_surrogate_is_the_ep_tangent_mapped() {
-        let node = |k: f64| NodeState {
-            x: V3([0.1 * k, -0.2, 0.3 * k]),
-            r: exp_map(&V3([0.4 * k, -0.2, 0.9])),
-            v: V3([1.0, -2.0 * k, 0.5]),
-            w: V3([0.3, 5.0, -k]),
-        };
-        let state = State {
-            t: 0.1,
-            nodes: vec![node(1.0), node(-0.7)],
-            coords: vec![0.3, -1.1],
-            coord_rates: vec![-0.8, 0.6],
-            lambda: vec![],
-            history: vec![],
-        };
+        let state = generic_state();
         #[derive(Clone, Copy, PartialEq)]
         enum Kind {
             Delta,
@@ -953,17 +950,7 @@ mod kernel_tests {
                     twin[ed.mult(r)] = (Kind::Lambda, ep.mult(r));
                     twin[ed.mult_jump(r)] = (Kind::LambdaD, ep.mult(r));
                 }
-                let sides = if ground {
-                    [
-                        Side::Ground {
-                            x: V3([0.5, 0.0, 0.1]),
-                            r: exp_map(&V3([0.2, 0.1, 0.0])),
-                        },
-                        Side::Node(1),
-                    ]
-                } else {
-                    [Side::Node(0), Side::Node(1)]
-                };
+                let sides = generic_sides(ground);
                 let kernel = |layout: &Layout| {
                     JointKernel::new("j".into(), law.clone(), sides, (0..nq).collect(), 0, layout)
                 };
