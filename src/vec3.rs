@@ -180,40 +180,31 @@ impl<T: Real> M3<T> {
             m[0][2] * x[0] + m[1][2] * x[1] + m[2][2] * x[2],
         ])
     }
+    /// The matrix whose entry (i, j) is `Σ_k term(i, k, j)`: one loop for the products
+    /// below, whatever the scalar type of each factor.
     #[inline]
-    pub fn mul_m(&self, o: &Self) -> Self {
+    fn product(term: impl Fn(usize, usize, usize) -> T) -> Self {
         let mut r = Self::zero();
         for i in 0..3 {
             for j in 0..3 {
-                r.0[i][j] =
-                    self.0[i][0] * o.0[0][j] + self.0[i][1] * o.0[1][j] + self.0[i][2] * o.0[2][j];
+                r.0[i][j] = term(i, 0, j) + term(i, 1, j) + term(i, 2, j);
             }
         }
         r
+    }
+    #[inline]
+    pub fn mul_m(&self, o: &Self) -> Self {
+        Self::product(|i, k, j| self.0[i][k] * o.0[k][j])
     }
     /// `self o` for a constant matrix `o` (cheaper than lifting `o` to `T`).
     #[inline]
     pub fn mul_mf(&self, o: &M3<f64>) -> Self {
-        let mut r = Self::zero();
-        for i in 0..3 {
-            for j in 0..3 {
-                r.0[i][j] =
-                    self.0[i][0] * o.0[0][j] + self.0[i][1] * o.0[1][j] + self.0[i][2] * o.0[2][j];
-            }
-        }
-        r
+        Self::product(|i, k, j| self.0[i][k] * o.0[k][j])
     }
     /// `a self` for a constant matrix `a`.
     #[inline]
     pub fn pre_mul_f(&self, a: &M3<f64>) -> Self {
-        let mut r = Self::zero();
-        for i in 0..3 {
-            for j in 0..3 {
-                r.0[i][j] =
-                    self.0[0][j] * a.0[i][0] + self.0[1][j] * a.0[i][1] + self.0[2][j] * a.0[i][2];
-            }
-        }
-        r
+        Self::product(|i, k, j| self.0[k][j] * a.0[i][k])
     }
     pub fn scale(&self, s: T) -> Self {
         let mut r = *self;
