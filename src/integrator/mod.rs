@@ -25,6 +25,11 @@ use crate::vec3::V3;
 /// tangent pays (a residual-only iteration costs ~1/5 of one with tangent and LU).
 const STALE_ITERATIONS: f64 = 5.0;
 
+/// ED: the most further iterations decoupled factors fresh in this step may need before the
+/// exact matrix's pay (its tangent and LU cost ~20 residual-only iterations with the
+/// decoupled system's back-substitution, against its own ~8).
+const DECOUPLED_ITERATIONS: f64 = 15.0;
+
 /// Which LU factors are in hand.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Factors {
@@ -661,6 +666,10 @@ impl Integrator {
         let mut small_update = false;
         let converged_before = std::mem::replace(&mut self.last_converged, false);
         let mut previous: Option<Measure> = None;
+        // The iterate with the smallest force residual so far: stagnation is judged against
+        // it, so that a residual cycling at round-off (8e-11, 2e-10, 8e-11, …) counts as
+        // stalled, not as falling every other iteration.
+        let mut best: Option<Measure> = None;
         let mut fresh_update = false;
         let mut stalls = 0;
         self.factored_this_solve = false;
@@ -687,9 +696,9 @@ impl Integrator {
             // contraction is neither round-off nor convergence; a second one below the
             // round-off floor is round-off (else every step of a model whose residual
             // bottoms out just above the tolerance would pay a fresh tangent and LU).
-            let stalled = previous.as_ref().is_some_and(|p| m.force > 0.5 * p.force);
+            let stalled = best.as_ref().is_some_and(|b| m.force > 0.5 * b.force);
             stalls = if stalled { stalls + 1 } else { 0 };
-            let judged = previous.as_ref().filter(|_| fresh_update || stalls >= 2);
+            let judged = best.as_ref().filter(|_| fresh_update || stalls >= 2);
             // The increment test (an explicit setting) accepts a residual at its round-off
             // floor when the last update moved nothing by more than `increment_tol`; the
             // constraints must hold to as much.
@@ -723,6 +732,9 @@ impl Integrator {
                     self.assemble_for(sys, ctx, Some(tangent));
                 }
                 reuse = false;
+            }
+            if best.as_ref().is_none_or(|b| m.force < b.force) {
+                best = Some(m);
             }
             previous = Some(m);
             if it == self.max_iter {
@@ -776,9 +788,21 @@ impl Integrator {
         let Some(p) = previous else {
             return false;
         };
+        // Below its round-off floor a residual stalls whatever the factors: the next stall
+        // accepts the step (see `newton`); a fresh tangent would buy nothing.
+        if m.force <= m.force_floor && m.constraints_hold(sys, self.tol, None) {
+            return false;
+        }
         let (d, d_prev) = (m.distance(sys, self.tol), p.distance(sys, self.tol));
         let theta = d / d_prev.max(f64::MIN_POSITIVE);
-        theta >= 0.9 || d.ln() > STALE_ITERATIONS * (1.0 / theta).ln()
+        // Fresh decoupled factors that contract slowly give way to the exact matrix's,
+        // whose tangent and LU cost many more iterations than a decoupled refresh.
+        let budget = if self.factors == Factors::Decoupled && self.factored_this_solve {
+            DECOUPLED_ITERATIONS
+        } else {
+            STALE_ITERATIONS
+        };
+        theta >= 0.9 || d.ln() > budget * (1.0 / theta).ln()
     }
 
     /// Solves for the Newton update (with the kept factors, or factoring afresh) and

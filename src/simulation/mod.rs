@@ -31,6 +31,8 @@ pub struct RunStats {
     pub halvings: usize,
     pub newton_iterations: usize,
     pub factorizations: usize,
+    /// Of them, those of the exact Newton matrix (the rest: ED's decoupled complex system).
+    pub exact_factorizations: usize,
     /// Fill-reducing orderings computed (once per sparsity pattern).
     pub orderings: usize,
     pub max_constraint_violation: f64,
@@ -62,6 +64,7 @@ impl Default for RunStats {
             halvings: 0,
             newton_iterations: 0,
             factorizations: 0,
+            exact_factorizations: 0,
             orderings: 0,
             max_constraint_violation: 0.0,
             max_constraint_work: 0.0,
@@ -461,6 +464,7 @@ impl Simulation {
     fn update_stats(&mut self) {
         self.stats.newton_iterations = self.integrator.total_iterations;
         self.stats.factorizations = self.integrator.factorizations();
+        self.stats.exact_factorizations = self.integrator.matrix.numeric_factorizations;
         self.stats.linear_solves = self.integrator.solves;
         self.stats.orderings = self.integrator.matrix.orderings;
         self.stats.pattern_misses = self.integrator.pattern_misses;
