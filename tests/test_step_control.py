@@ -273,4 +273,3 @@ def test_ed_decoupled_factors_back_off_where_they_do_not_serve():
     m.settings(tolerance=1e-3)
     stats = fd.simulate(m).attrs["stats"]
     assert stats["factorizations"] < 1.9 * stats["steps"], stats
-
