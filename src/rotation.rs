@@ -53,6 +53,22 @@ pub fn cayley_tangent<T: Real>(r: &V3<T>) -> M3<T> {
     rodrigues_h(r).transpose()
 }
 
+/// `R_i cay(r)` for an increment `r` in `f64` or a first-order dual: the value from `f64`
+/// algebra and the variation from the material tangent, `δ(R_i cay(r)) = R_f (T(r) δr)~`
+/// ([`cayley_tangent`]). Equal to `R_i cay(r)` to first order — all a dual carries — at a third of
+/// the dual arithmetic of forming `cay(r)` in duals and multiplying.
+#[inline]
+pub fn rotate_material<T: Real>(r_i: &M3<f64>, r: &V3<T>) -> M3<T> {
+    let r0 = r.re();
+    let rf = r_i.mul_m(&cayley(&r0));
+    let t = cayley_tangent(&r0).0;
+    let dr = r.0.map(|v| v - v.re());
+    let th = V3(std::array::from_fn(|i| {
+        dr[0] * t[i][0] + dr[1] * t[i][1] + dr[2] * t[i][2]
+    }));
+    M3::from_f64(&rf) + th.tilde().pre_mul_f(&rf)
+}
+
 /// `(I − r̃/2)⁻¹ = I + r0 (r̃/2 + r̃r̃/4)`; note `R_i (I − r̃/2)⁻¹ = (R_i + R_f)/2`.
 #[inline]
 pub fn inv_i_minus_half_tilde<T: Real>(r: &V3<T>) -> M3<T> {

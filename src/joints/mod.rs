@@ -23,7 +23,7 @@ pub mod spherical;
 pub mod universal;
 
 use crate::elements::{v3, Kernel, StepCtx};
-use crate::rotation::cayley;
+use crate::rotation::rotate_material;
 use crate::scalar::Real;
 use crate::system::layout::Layout;
 use crate::vec3::{M3, V3};
@@ -383,19 +383,29 @@ impl JointKernel {
         start: &JointState<T>,
         y: &[T],
     ) -> (JointState<T>, [V3<T>; 2]) {
-        let mut sf = *start;
-        let mut rs = [V3::zero(); 2];
         let at = self.law.attachments();
+        let mut rs = [V3::zero(); 2];
+        // Built in place, a side at a time: a copy of `start` first would move kilobytes of duals.
+        let mut sf = JointState {
+            x: [V3::zero(); 2],
+            r: [M3::identity(); 2],
+            q: start.q,
+            e: [M3::identity(); 2],
+            arm: [V3::zero(); 2],
+        };
         for k in 0..2 {
             if let Some(d) = self.slots[k].delta {
                 rs[k] = v3(y, d + 3);
                 let x = start.x[k] + v3(y, d);
-                sf.set_side(k, x, cayley(&rs[k]).pre_mul_f(&si.r[k]), &at[k]);
+                sf.set_side(k, x, rotate_material(&si.r[k], &rs[k]), &at[k]);
+            } else {
+                (sf.x[k], sf.r[k], sf.e[k], sf.arm[k]) =
+                    (start.x[k], start.r[k], start.e[k], start.arm[k]);
             }
         }
         let per = self.per;
         for c in 0..self.coords.len() {
-            sf.q[c] = start.q[c] + y[self.coord_slot + per * c];
+            sf.q[c] += y[self.coord_slot + per * c];
         }
         (sf, rs)
     }
@@ -690,7 +700,7 @@ pub mod law_tests {
     //! (`C_f − C_i = B^D Δ` for large increments) and its rate operator against a
     //! finite-difference derivative of `C` along a motion.
     use super::*;
-    use crate::rotation::exp_map;
+    use crate::rotation::{cayley, exp_map};
 
     /// Generic attachments (offsets and tilted triads) for the law tests.
     pub fn attachments() -> [Attachment; 2] {
@@ -815,7 +825,7 @@ mod kernel_tests {
     use super::*;
     use crate::elements::fd_harness::tangent_error;
     use crate::model::Scheme;
-    use crate::rotation::exp_map;
+    use crate::rotation::{cayley, exp_map};
     use crate::state::{NodeState, State};
 
     fn laws() -> Vec<JointLaw> {
