@@ -303,6 +303,30 @@ mod tests {
     }
 
     #[test]
+    fn rotate_material_is_r_i_cayley_to_first_order() {
+        use crate::scalar::Dual;
+        let ri = exp_map(&v([0.3, -1.2, 0.4]));
+        let r = v([0.8, 0.1, -2.0]);
+        let rd = V3(std::array::from_fn(|k| Dual::<3>::seeded(r.0[k], Some(k))));
+        let (fast, full) = (rotate_material(&ri, &rd), cayley(&rd).pre_mul_f(&ri));
+        for i in 0..3 {
+            for j in 0..3 {
+                let (a, b) = (fast.0[i][j], full.0[i][j]);
+                // Both are exact to first order: they differ by round-off of O(1) entries.
+                assert!((a.re - b.re).abs() < 1e-15, "value {i}{j}");
+                for k in 0..3 {
+                    assert!((a.du[k] - b.du[k]).abs() < 1e-14, "d/dr{k} of {i}{j}");
+                }
+            }
+        }
+        assert!(close(
+            &rotate_material(&ri, &r),
+            &ri.mul_m(&cayley(&r)),
+            0.0
+        ));
+    }
+
+    #[test]
     fn spatial_increment_identity_eq7() {
         // e_f − e_i = r̃ (e_f + e_i)/2 for R_f = cay(r) R_i.
         let ri = exp_map(&v([0.3, -1.2, 0.4]));
