@@ -15,7 +15,7 @@
 use super::section::Mat6;
 use super::shape::MAX_NODES;
 use crate::elements::{add3, v3, Kernel, StepCtx};
-use crate::rotation::cayley;
+use crate::rotation::{cayley, rotate_material};
 use crate::scalar::Real;
 use crate::system::layout::Layout;
 use crate::vec3::{M3, V3};
@@ -390,7 +390,7 @@ impl BeamElement {
             add3(res, per * a, ua[0]);
             let mut m = ri.tmul_v(&ua[1]);
             let mf = if at_f {
-                let rf = ri.mul_m(&cayley(&v3(y, per * a + 3)));
+                let rf = rotate_material(&ctx.state.nodes[node].r, &v3(y, per * a + 3));
                 rf.tmul_v(&ua[2])
             } else {
                 V3::zero()
@@ -471,7 +471,7 @@ impl BeamElement {
             let ri = M3::<T>::from_f64(&ctx.state.nodes[node].r);
             let r = v3(y, 12 * a + 3);
             rot_i[a] = ri;
-            rot_f[a] = ri.mul_m(&cayley(&r));
+            rot_f[a] = rotate_material(&ctx.state.nodes[node].r, &r);
             vel_j[a] = (
                 v3(y, 12 * a + 6).scale_f(1.0 / h),
                 v3(y, 12 * a + 9).scale_f(1.0 / h),

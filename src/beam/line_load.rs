@@ -9,7 +9,7 @@
 use super::element::BeamElement;
 use crate::elements::loads::LoadKind;
 use crate::elements::{add3, v3, Kernel, StepCtx};
-use crate::rotation::cayley;
+use crate::rotation::rotate_material;
 use crate::scalar::Real;
 use crate::time_function::TimeFunction;
 use crate::vec3::{M3, V3};
@@ -67,7 +67,7 @@ impl Kernel for FollowerLineLoad {
                         // Material rotation rows: the i-triad in a step, the f-triad in statics.
                         let ri = M3::<T>::from_f64(&ctx.state.nodes[node].r);
                         let rn = if ctx.is_static() {
-                            ri.mul_m(&cayley(&v3(y, at + 3)))
+                            rotate_material(&ctx.state.nodes[node].r, &v3(y, at + 3))
                         } else {
                             ri
                         };

@@ -13,7 +13,7 @@
 //! rotor's equilibrium in the frame turning with it, from which it spins steadily.
 
 use super::{add3, v3, Kernel, StepCtx};
-use crate::rotation::{cayley, inv_i_minus_half_tilde};
+use crate::rotation::{inv_i_minus_half_tilde, rotate_material};
 use crate::scalar::{Dual, Real};
 use crate::vec3::{M3, V3};
 
@@ -114,7 +114,7 @@ impl Kernel for NodeInertia {
                     0,
                     omega.cross(&omega.cross(&arm)).scale_f(self.mass * lf),
                 );
-                let rf = M3::<T>::from_f64(&ni.r).mul_m(&cayley(&v3(y, 3)));
+                let rf = rotate_material(&ni.r, &v3(y, 3));
                 let w = rf.tmul_v(&omega);
                 let j = M3::<T>::from_f64(&self.inertia);
                 add3(res, 3, w.cross(&j.mul_v(&w)).scale_f(lf));

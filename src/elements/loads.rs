@@ -9,7 +9,7 @@
 //! beam's nodes as point loads when the system is compiled.
 
 use super::{add3, v3, Kernel, StepCtx};
-use crate::rotation::cayley;
+use crate::rotation::rotate_material;
 use crate::scalar::Real;
 use crate::system::layout::Layout;
 use crate::time_function::TimeFunction;
@@ -77,7 +77,7 @@ impl Kernel for PointLoad {
     fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], res: &mut [T]) {
         let s = self.factor(ctx);
         let ri = M3::<T>::from_f64(&ctx.state.nodes[self.node].r);
-        let rf = || ri.mul_m(&cayley(&v3(y, 3)));
+        let rf = || rotate_material(&ctx.state.nodes[self.node].r, &v3(y, 3));
         let value = V3::<T>::from_f64(self.value.scale_f(s));
         let (at, load) = match (self.kind, self.follower, ctx.is_static()) {
             (LoadKind::Force, false, _) => (0, value),

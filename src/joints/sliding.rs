@@ -29,7 +29,7 @@ use super::{Attachment, ConstraintLaw, JointState, Rows, Side, MAX_COORDS, MAX_R
 use crate::beam::path::{ArcMap, BeamPath, NodeWeights};
 use crate::beam::shape::MAX_NODES;
 use crate::elements::{v3, Kernel, StepCtx};
-use crate::rotation::cayley;
+use crate::rotation::rotate_material;
 use crate::scalar::Real;
 use crate::state::State;
 use crate::system::layout::Layout;
@@ -455,10 +455,10 @@ impl SlidingJoint {
             Side::Node(a) => (state.nodes[a].x, state.nodes[a].r),
             Side::Ground { x, r } => (x, r),
         };
-        let (x, r) = (V3::from_f64(x), M3::from_f64(&r));
+        let x = V3::from_f64(x);
         match (slot, y) {
-            (Some(d), Some(y)) => (x + v3(y, d), r.mul_m(&cayley(&v3(y, d + 3)))),
-            _ => (x, r),
+            (Some(d), Some(y)) => (x + v3(y, d), rotate_material(&r, &v3(y, d + 3))),
+            _ => (x, M3::from_f64(&r)),
         }
     }
 
