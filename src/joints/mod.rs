@@ -383,29 +383,19 @@ impl JointKernel {
         start: &JointState<T>,
         y: &[T],
     ) -> (JointState<T>, [V3<T>; 2]) {
-        let at = self.law.attachments();
+        let mut sf = *start;
         let mut rs = [V3::zero(); 2];
-        // Built in place, a side at a time: a copy of `start` first would move kilobytes of duals.
-        let mut sf = JointState {
-            x: [V3::zero(); 2],
-            r: [M3::identity(); 2],
-            q: start.q,
-            e: [M3::identity(); 2],
-            arm: [V3::zero(); 2],
-        };
+        let at = self.law.attachments();
         for k in 0..2 {
             if let Some(d) = self.slots[k].delta {
                 rs[k] = v3(y, d + 3);
                 let x = start.x[k] + v3(y, d);
                 sf.set_side(k, x, rotate_material(&si.r[k], &rs[k]), &at[k]);
-            } else {
-                (sf.x[k], sf.r[k], sf.e[k], sf.arm[k]) =
-                    (start.x[k], start.r[k], start.e[k], start.arm[k]);
             }
         }
         let per = self.per;
         for c in 0..self.coords.len() {
-            sf.q[c] += y[self.coord_slot + per * c];
+            sf.q[c] = start.q[c] + y[self.coord_slot + per * c];
         }
         (sf, rs)
     }
