@@ -61,6 +61,9 @@ pub fn cayley_tangent<T: Real>(r: &V3<T>) -> M3<T> {
 pub fn rotate_material<T: Real>(r_i: &M3<f64>, r: &V3<T>) -> M3<T> {
     let r0 = r.re();
     let rf = r_i.mul_m(&cayley(&r0));
+    if !T::DERIVATIVES {
+        return M3::from_f64(&rf);
+    }
     let t = cayley_tangent(&r0).0;
     let dr = r.0.map(|v| v - v.re());
     let th = V3(std::array::from_fn(|i| {

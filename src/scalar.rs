@@ -32,6 +32,9 @@ pub trait Real:
     + Div<f64, Output = Self>
     + 'static
 {
+    /// Whether values carry derivatives (a dual); `f64` carries none, so first-order shortcuts
+    /// may skip their variation terms.
+    const DERIVATIVES: bool;
     fn cst(x: f64) -> Self;
     /// The value part (drops derivatives).
     fn re(self) -> f64;
@@ -51,6 +54,7 @@ pub trait Real:
 }
 
 impl Real for f64 {
+    const DERIVATIVES: bool = false;
     #[inline]
     fn cst(x: f64) -> Self {
         x
@@ -213,6 +217,7 @@ macro_rules! assign_ops {
 assign_ops!(AddAssign add_assign +, SubAssign sub_assign -, MulAssign mul_assign *, DivAssign div_assign /);
 
 impl<const N: usize> Real for Dual<N> {
+    const DERIVATIVES: bool = true;
     #[inline]
     fn cst(x: f64) -> Self {
         Self::constant(x)
