@@ -815,7 +815,7 @@ mod kernel_tests {
     use super::*;
     use crate::elements::fd_harness::tangent_error;
     use crate::model::Scheme;
-    use crate::rotation::{cayley, exp_map};
+    use crate::rotation::exp_map;
     use crate::state::{NodeState, State};
 
     fn laws() -> Vec<JointLaw> {
