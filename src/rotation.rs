@@ -55,8 +55,8 @@ pub fn cayley_tangent<T: Real>(r: &V3<T>) -> M3<T> {
 
 /// `R_i cay(r)` for an increment `r` in `f64` or a first-order dual: the value from `f64`
 /// algebra and the variation from the material tangent, `δ(R_i cay(r)) = R_f (T(r) δr)~`
-/// ([`cayley_tangent`]). Equal to `R_i cay(r)` to first order — all a dual carries — at a third of
-/// the dual arithmetic of forming `cay(r)` in duals and multiplying.
+/// ([`cayley_tangent`]). Equal to `R_i cay(r)` to first order — all a dual carries — without
+/// forming `cay(r)` in duals (a dual 3×3 product fewer); in `f64` it is just `R_i cay(r)`.
 #[inline]
 pub fn rotate_material<T: Real>(r_i: &M3<f64>, r: &V3<T>) -> M3<T> {
     let r0 = r.re();

@@ -803,10 +803,10 @@ impl Integrator {
         }
         let d = m.distance(sys, self.tol);
         let theta = d / p.distance(sys, self.tol).max(f64::MIN_POSITIVE);
-        // θ over the last two iterations for ED's fresh decoupled factors (whose miss costs the
-        // exact LU): they leave an error that swaps between row groups, so the residual falls 100× in one
-        // iteration and not at all in the next (1.7e-2, 4.0e-5, 5.3e-5) — a contraction of
-        // 0.06 per iteration, not a divergence.
+        // θ over the last two iterations for ED's fresh decoupled factors (whose miss costs
+        // the exact LU): their error swaps between row groups, so the residual falls 100× in
+        // one iteration and not at all in the next (1.7e-2, 4.0e-5, 5.3e-5) — a contraction
+        // of 0.06 per iteration, not a divergence.
         let fresh_decoupled = self.factors == Factors::Decoupled && self.factored_this_solve;
         let two = before_previous.filter(|_| fresh_decoupled);
         let theta = two.map_or(theta, |b| {
