@@ -35,6 +35,9 @@ impl ConstraintLaw for Clamp {
         points_rate(s, out, 0);
         orientation_rate(s, out, 3);
     }
+    fn affine_in_translations(&self) -> bool {
+        true
+    }
 }
 
 #[cfg(test)]

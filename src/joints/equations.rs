@@ -228,6 +228,12 @@ pub trait StepEquations<const NC: usize>: Kernel + Sized {
     /// Local slots of the unknowns the geometry depends on (node increments `[Δx, r]`,
     /// coordinate increments) into `out`; returns how many (at most `NC`).
     fn geometric_slots(&self, ctx: &StepCtx, out: &mut [usize; NC]) -> usize;
+    /// Whether the residual is linear in the nodes' translations with the gradient's own
+    /// coefficients (see `ConstraintLaw::affine_in_translations`): `geometric_slots` then
+    /// leaves them out and [`add_translation_columns`] writes their columns.
+    fn translations_linear(&self) -> bool {
+        false
+    }
     /// Calls `f` with the constraint's column map and step terms at the local unknowns `y`.
     fn with_equations<T: Real, R>(
         &self,
@@ -402,6 +408,9 @@ fn split_pass<K: StepEquations<NC>, const NC: usize, const W: usize, const M: us
             rates: rates.as_ref().map(|(bi, bf)| (bi, bf)),
         };
         add_linear_columns(ctx, &map_re, &terms_re, n, vals, pos);
+        if k.translations_linear() {
+            add_translation_columns(ctx, &map_re, &terms_re, n, vals, pos);
+        }
     });
     if let Some(res) = res {
         for (i, r) in rd.iter().enumerate() {
@@ -516,6 +525,33 @@ pub fn add_linear_columns<const NC: usize>(
             put(slot, lam_d, -q * v);
             put(lam_d, slot, s * v);
         });
+    }
+}
+
+/// The tangent columns of the nodes' translation increments of a constraint whose residual
+/// is linear in them (`C = x₂ − x₁ + …`, gradients free of positions): `s B` on the
+/// position rows and, under ED, `−2s B_f` on the j-condition (`V_f = 2Δ/h − V_j`); the
+/// momentum rows do not depend on them.
+pub fn add_translation_columns<const NC: usize>(
+    ctx: &StepCtx,
+    map: &ColumnMap<f64>,
+    terms: &ConstraintTerms<f64, NC>,
+    n: usize,
+    vals: &mut [f64],
+    pos: &[usize],
+) {
+    let s = ctx.s;
+    for r in 0..map.n_rows {
+        let row = map.mult + map.per * r;
+        for node in map.nodes {
+            for c in 0..3 {
+                let col = node.delta + c;
+                vals[pos[row * n + col]] += s * terms.b[r][node.col + c];
+                if let Some((_, b_f)) = terms.rates {
+                    vals[pos[(row + 1) * n + col]] -= 2.0 * s * b_f[r][node.col + c];
+                }
+            }
+        }
     }
 }
 

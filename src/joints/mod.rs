@@ -111,6 +111,14 @@ pub trait ConstraintLaw {
     fn discrete_gradient<T: Real>(&self, si: &JointState<T>, sf: &JointState<T>, out: &mut Rows<T>);
     /// Rate operator: `Ċ = B [v₁, ω₁, v₂, ω₂, q̇]` (spatial angular velocities).
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>);
+    /// Whether the positions enter `C` only as `x₂ − x₁` (coincident points, no projection
+    /// on a moving axis), so that `B^D` and `B` do not depend on them and their columns are
+    /// `∓I`: the tangent's translation columns are then the gradient's own, written in closed
+    /// form, and the dual pass differentiates rotations and coordinates only (6–7 directions
+    /// instead of 12–13). Checked by the law tests.
+    fn affine_in_translations(&self) -> bool {
+        false
+    }
 }
 
 /// The joint types, each a law with its own module.
@@ -162,6 +170,9 @@ impl ConstraintLaw for JointLaw {
     }
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
         dispatch!(self, j => j.rate(s, out))
+    }
+    fn affine_in_translations(&self) -> bool {
+        dispatch!(self, j => j.affine_in_translations())
     }
 }
 
@@ -619,10 +630,15 @@ impl Kernel for JointKernel {
 }
 
 impl StepEquations<NCOL> for JointKernel {
+    fn translations_linear(&self) -> bool {
+        self.law.affine_in_translations()
+    }
+
     fn geometric_slots(&self, _ctx: &StepCtx, out: &mut [usize; NCOL]) -> usize {
         let mut g = 0;
+        let first = if self.translations_linear() { 3 } else { 0 };
         for d in self.slots.iter().filter_map(|s| s.delta) {
-            for c in 0..6 {
+            for c in first..6 {
                 out[g] = d + c;
                 g += 1;
             }
@@ -805,6 +821,63 @@ pub mod law_tests {
         let (d, r) = check_law(law);
         assert!(d < 1e-13, "discrete gradient not exact: {d:e}");
         assert!(r < 1e-8, "rate operator wrong: {r:e}");
+        if law.affine_in_translations() {
+            let a = affine_defect(law);
+            assert!(a < 1e-13, "not affine in the translations: {a:e}");
+        }
+    }
+
+    /// For a law that claims `affine_in_translations`: moving both sides' positions (not
+    /// their rotations) changes `C` by exactly `B[:, x]·d` and neither `B^D` nor `B`, and the
+    /// translation columns of both are the same. Returns the largest defect (round-off of
+    /// O(1) data, ~1e-15, for a true claim; O(1) for a projection on a moving axis).
+    pub fn affine_defect<L: ConstraintLaw>(law: &L) -> f64 {
+        let (n, nq, at) = (law.n_rows(), law.n_coords(), law.attachments());
+        let mut worst = 0.0f64;
+        for trial in 0..10 {
+            let si = random_state(trial as f64, nq, at);
+            let sf = random_state(50.0 + trial as f64, nq, at);
+            let d = random_state(100.0 + trial as f64, nq, at).x;
+            let shift = |s: &JointState<f64>| {
+                let mut m = *s;
+                for k in 0..2 {
+                    m.set_side(k, s.x[k] + d[k], s.r[k], &at[k]);
+                }
+                m
+            };
+            let (sim, sfm) = (shift(&si), shift(&sf));
+            let (mut b, mut bm) = (zero_rows::<f64>(), zero_rows::<f64>());
+            law.discrete_gradient(&si, &sf, &mut b);
+            law.discrete_gradient(&sim, &sfm, &mut bm);
+            let (mut rb, mut rbm) = (zero_rows::<f64>(), zero_rows::<f64>());
+            law.rate(&sf, &mut rb);
+            law.rate(&sfm, &mut rbm);
+            let (mut c, mut cm) = ([0.0; MAX_ROWS], [0.0; MAX_ROWS]);
+            law.value(&sf, &mut c);
+            law.value(&sfm, &mut cm);
+            for r in 0..n {
+                let mut moved = 0.0;
+                for k in 0..2 {
+                    for j in 0..3 {
+                        moved += rb[r][6 * k + j] * d[k].0[j];
+                        worst = worst.max((b[r][6 * k + j] - rb[r][6 * k + j]).abs());
+                    }
+                }
+                worst = worst.max((cm[r] - c[r] - moved).abs());
+                for col in 0..NCOL {
+                    worst = worst.max((bm[r][col] - b[r][col]).abs());
+                    worst = worst.max((rbm[r][col] - rb[r][col]).abs());
+                }
+            }
+        }
+        worst
+    }
+
+    #[test]
+    fn projections_are_not_affine_in_the_translations() {
+        // The check must be able to fail: a prismatic joint's projection on a moving axis.
+        let law = prismatic::Prismatic { at: attachments() };
+        assert!(affine_defect(&law) > 1e-3);
     }
 }
 

@@ -42,6 +42,9 @@ impl ConstraintLaw for Revolute {
         axis_rate(s, out, 3);
         phi_rate(s, 0, &mut out[5]);
     }
+    fn affine_in_translations(&self) -> bool {
+        true
+    }
 }
 
 /// The two rows keeping the axes aligned, `e₃ᵏ·e₁ˡ = e₃ᵏ·e₂ˡ = 0` (eq. 11).

@@ -30,6 +30,9 @@ impl ConstraintLaw for Spherical {
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
         points_rate(s, out, 0);
     }
+    fn affine_in_translations(&self) -> bool {
+        true
+    }
 }
 
 #[cfg(test)]

@@ -57,6 +57,9 @@ impl ConstraintLaw for Universal {
         angle_rate(s, 0, PHI1, &mut out[4]);
         angle_rate(s, 1, PHI2, &mut out[5]);
     }
+    fn affine_in_translations(&self) -> bool {
+        true
+    }
 }
 
 #[cfg(test)]
