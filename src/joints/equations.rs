@@ -328,9 +328,13 @@ fn split<K: StepEquations<NC>, const NC: usize>(
     match (g, small) {
         (0..=6, true) => split_pass::<K, NC, 6, 24>(k, ctx, y, out, slots, tangent),
         (0..=6, false) => split_pass::<K, NC, 6, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots, tangent),
-        (7, _) => split_pass::<K, NC, 7, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots, tangent),
-        (8..=12, true) => split_pass::<K, NC, 12, 24>(k, ctx, y, out, slots, tangent),
-        (8..=12, false) => split_pass::<K, NC, 12, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots, tangent),
+        // Two-node joints affine in the translations: two rotations and one or two angles.
+        (7, true) => split_pass::<K, NC, 7, 24>(k, ctx, y, out, slots, tangent),
+        (7, false) => split_pass::<K, NC, 7, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots, tangent),
+        (8, true) => split_pass::<K, NC, 8, 24>(k, ctx, y, out, slots, tangent),
+        (8, false) => split_pass::<K, NC, 8, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots, tangent),
+        (9..=12, true) => split_pass::<K, NC, 12, 24>(k, ctx, y, out, slots, tangent),
+        (9..=12, false) => split_pass::<K, NC, 12, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots, tangent),
         (13, true) => split_pass::<K, NC, 13, 24>(k, ctx, y, out, slots, tangent),
         (13, false) => split_pass::<K, NC, 13, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots, tangent),
         _ => split_pass::<K, NC, 14, MAX_SPLIT_LOCAL>(k, ctx, y, out, slots, tangent),
