@@ -914,7 +914,7 @@ impl Kernel for SlidingJoint {
                     spos[a * ns + b] = pos[share.map[a] * n + share.map[b]];
                 }
             }
-            crate::elements::eval_kernel(&share, ctx, y, res, Some((vals, &spos[..ns * ns])));
+            share.evaluate(ctx, y, res, Some((vals, &spos[..ns * ns])));
         }
     }
 
