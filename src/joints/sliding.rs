@@ -216,7 +216,8 @@ impl NodeShare<'_> {
         let per = self.joint.per();
         let fol_slot = self.joint.follower_slot.map(|_| 6 * per);
         let coord_slot = 6 * per * (1 + usize::from(fol_slot.is_some()));
-        debug_assert_eq!(per, if ctx.ed() { 2 } else { 1 });
+        // ED's decoupled surrogate evaluates EP's equations on the ED block (per = 2).
+        debug_assert!(per == 2 || !ctx.ed());
         (fol_slot, coord_slot, coord_slot + per)
     }
 }
@@ -257,7 +258,8 @@ impl StepEquations<SHARE_NC> for NodeShare<'_> {
             joint.pose(ctx.state, joint.follower, fol_slot, Some(y)),
         ];
         let share = joint.node_share(ctx, self.j, &w, node, fol);
-        let ed = ctx.ed();
+        // Jump slots as the block is laid out (ED's, also under its decoupled surrogate).
+        let ed = self.joint.per() == 2;
         let mut blocks = [NodeColumns {
             col: 0,
             delta: node_slot,
@@ -873,6 +875,33 @@ pub fn orthonormal_frame(d1: V3<f64>, d2: V3<f64>) -> M3<f64> {
     M3::from_cols(e1, e2, e1.cross(&e2))
 }
 
+impl SlidingJoint {
+    /// Calls `f` with each window node's share that takes part in the step and the positions
+    /// of its local tangent block in the joint's (`pos`, row-major over the joint's unknowns).
+    fn for_each_share(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        pos: &[usize],
+        mut f: impl FnMut(&NodeShare, &[usize]),
+    ) {
+        let n = self.unknowns.len();
+        let zf = ctx.state.coords[self.coord] + y[self.unknowns[self.coord_slot]];
+        let w = self.window_weights::<f64>(ctx, zf);
+        let mut spos = [0usize; MAX_SHARE * MAX_SHARE];
+        for j in (0..=(self.last_node() - self.first_node())).filter(|&j| w.active(j)) {
+            let share = self.share_kernel(j);
+            let ns = share.len;
+            for a in 0..ns {
+                for b in 0..ns {
+                    spos[a * ns + b] = pos[share.map[a] * n + share.map[b]];
+                }
+            }
+            f(&share, &spos[..ns * ns]);
+        }
+    }
+}
+
 impl Kernel for SlidingJoint {
     fn unknowns(&self) -> &[usize] {
         &self.unknowns
@@ -890,8 +919,8 @@ impl Kernel for SlidingJoint {
     }
 
     /// The residual is a sum of the window nodes' shares, each depending on one node, the
-    /// follower, ζ and the multipliers: the tangent is assembled share by share (a few small
-    /// dual-number passes each) rather than by differentiating the whole window at once.
+    /// follower, ζ and the multipliers: the tangent is assembled share by share (one small
+    /// dual-number pass each) rather than by differentiating the whole window at once.
     fn evaluate(
         &self,
         ctx: &StepCtx,
@@ -902,20 +931,24 @@ impl Kernel for SlidingJoint {
         let Some((vals, pos)) = jac else {
             return crate::elements::eval_kernel(self, ctx, y, res, None);
         };
-        let n = self.unknowns.len();
-        let zf = ctx.state.coords[self.coord] + y[self.unknowns[self.coord_slot]];
-        let w = self.window_weights::<f64>(ctx, zf);
-        let mut spos = [0usize; MAX_SHARE * MAX_SHARE];
-        for j in (0..=(self.last_node() - self.first_node())).filter(|&j| w.active(j)) {
-            let share = self.share_kernel(j);
-            let ns = share.len;
-            for a in 0..ns {
-                for b in 0..ns {
-                    spos[a * ns + b] = pos[share.map[a] * n + share.map[b]];
-                }
-            }
-            share.evaluate(ctx, y, res, Some((vals, &spos[..ns * ns])));
-        }
+        self.for_each_share(ctx, y, pos, |share, spos| {
+            share.evaluate(ctx, y, res, Some((vals, spos)))
+        });
+    }
+
+    /// ED's decoupled surrogate share by share, as pair joints write it
+    /// ([`evaluate_constraint_decoupled`]): EP's equations on the ED block.
+    fn evaluate_decoupled(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        res: &mut [f64],
+        vals: &mut [f64],
+        pos: &[usize],
+    ) {
+        self.for_each_share(ctx, y, pos, |share, spos| {
+            evaluate_constraint_decoupled(share, ctx, y, res, vals, spos)
+        });
     }
 
     /// The pattern must hold wherever ζ goes in the window during the step: the union of
