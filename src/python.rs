@@ -392,6 +392,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(_panic_for_test, m)?)?;
     install_panic_hook();
     m.add_class::<PySimulation>()?;
+    // The compiled core's own version: a stale build beside newer Python sources shows here.
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     let py = m.py();
     m.add("FlexdynError", py.get_type::<FlexdynError>())?;
     m.add("ModelError", py.get_type::<ModelError>())?;

@@ -7,12 +7,20 @@ time integration (Bauchau & Bottasso 2001).
     res["pin.phi"].plot()
 """
 
+from importlib import metadata as _metadata
+
 from ._core import FlexdynError, ModelError, SolverError
+from ._core import __version__ as _core_version
 from ._core import schema as _schema
 from .builder import Model, drive, load
 from .modes import modes
 from .results import Interrupted, open_results, simulate, solve_static
 from .storage import OutputError
+
+try:
+    __version__: str = _metadata.version("flexdyn")
+except _metadata.PackageNotFoundError:  # run from a source tree without installing it
+    __version__ = _core_version
 
 __all__ = [
     "FlexdynError",
@@ -21,6 +29,7 @@ __all__ = [
     "ModelError",
     "OutputError",
     "SolverError",
+    "__version__",
     "drive",
     "load",
     "modes",

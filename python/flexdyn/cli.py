@@ -157,8 +157,16 @@ def _plot_split(args) -> int:
     return _plot(_with(args, results=files, sensors=channels))
 
 
+def _version_line() -> str:
+    """`flexdyn X (core Y)`: the package and its compiled core, which a stale build sets apart."""
+    from . import __version__
+
+    return f"flexdyn {__version__} (core {_core.__version__})"
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="flexdyn", description=__doc__)
+    p.add_argument("--version", action="version", version=_version_line())
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run a model file and write its sensors to NetCDF")
     r.add_argument("model")
