@@ -3,10 +3,10 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use flexdyn::integrator::{Factors, Integrator};
+use flexdyn::math::rotation::{cayley, exp_map, log_map};
+use flexdyn::math::vec3::V3;
 use flexdyn::model::{from_yaml_str, Scheme};
-use flexdyn::rotation::{cayley, exp_map, log_map};
 use flexdyn::simulation::Simulation;
-use flexdyn::vec3::V3;
 use std::hint::black_box;
 
 fn rotations(c: &mut Criterion) {

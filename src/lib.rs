@@ -4,9 +4,8 @@ pub mod beam;
 pub mod elements;
 pub mod integrator;
 pub mod joints;
+pub mod math;
 pub mod model;
-pub mod rotation;
-pub mod scalar;
 pub mod sensors;
 pub mod simulation;
 pub mod state;
@@ -14,7 +13,6 @@ pub mod system;
 #[doc(hidden)]
 pub mod testing;
 pub mod time_function;
-pub mod vec3;
 
 #[cfg(feature = "python")]
 mod python;

@@ -2,11 +2,11 @@
 //! sensor expands into channels `<sensor>.<component>` with SI units.
 
 use crate::integrator::StepReport;
+use crate::math::rotation::{exp_map, log_map};
+use crate::math::vec3::{M3, V3};
 use crate::model::{Model, ModelError, ModelErrors, Sensor};
-use crate::rotation::{exp_map, log_map};
 use crate::state::State;
 use crate::system::System;
-use crate::vec3::{M3, V3};
 
 #[derive(Clone, Debug)]
 enum Source {

@@ -1,6 +1,6 @@
 //! The configuration and velocities of the system at one instant.
 
-use crate::vec3::{M3, V3};
+use crate::math::vec3::{M3, V3};
 
 /// A node's state: position `x`, rotation `R` (stored as a matrix, never as parameters),
 /// velocity `v` (inertial frame) and *material* angular velocity `W` (node triad).

@@ -4,9 +4,9 @@
 //! system's angular momentum must change, step by step, by exactly h times that moment —
 //! to round-off, not merely O(h²) — while linear momentum is exact.
 
+use flexdyn::math::vec3::V3;
 use flexdyn::model::from_yaml_str;
 use flexdyn::simulation::Simulation;
-use flexdyn::vec3::V3;
 
 #[test]
 fn angular_momentum_changes_by_the_predicted_defect_of_eq_33() {

@@ -15,10 +15,10 @@
 use super::section::Mat6;
 use super::shape::MAX_NODES;
 use crate::elements::{add3, v3, Kernel, StepCtx};
-use crate::rotation::{cayley, rotate_material};
-use crate::scalar::Real;
-use crate::system::layout::Layout;
-use crate::vec3::{M3, V3};
+use crate::math::layout::Layout;
+use crate::math::rotation::{cayley, rotate_material};
+use crate::math::scalar::Real;
+use crate::math::vec3::{M3, V3};
 
 /// History entries per Gauss point: the triad (9, row-major) and the curvature k* (3).
 pub const HISTORY_PER_POINT: usize = 12;
@@ -537,7 +537,7 @@ impl BeamElement {
             let k = V3([ps.eps_f[3], ps.eps_f[4], ps.eps_f[5]]) + self.points[g].k0;
             write_history(
                 &mut out[g * HISTORY_PER_POINT..],
-                &crate::rotation::orthonormalize(&ps.rg_f),
+                &crate::math::rotation::orthonormalize(&ps.rg_f),
                 &k,
             );
         }
@@ -603,8 +603,8 @@ pub(crate) mod tests {
     use crate::beam::section::{Section, Shorthand};
     use crate::beam::shape::{gauss, lagrange, node_coordinates, reduced_points};
     use crate::elements::fd_harness::tangent_error;
-    use crate::model::Scheme;
-    use crate::rotation::exp_map;
+    use crate::math::layout::Scheme;
+    use crate::math::rotation::exp_map;
     use crate::state::{NodeState, State};
 
     const L: f64 = 2.0;
@@ -779,7 +779,7 @@ pub(crate) mod tests {
 
     #[test]
     fn strain_rate_operator_matches_differences_of_the_strains() {
-        use crate::rotation::cayley_log;
+        use crate::math::rotation::cayley_log;
         for n in 2..=4 {
             let (el, state, layout) = fixture(n, Scheme::Ep);
             let c = ctx(layout, &state);

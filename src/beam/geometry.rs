@@ -7,9 +7,9 @@
 //! section frame is `R(s) = F(s) R₁(θ(s))` with θ the pre-twist angle about axis 1, so its
 //! material curvature is `k₀ = R₁(θ)ᵀ Fᵀ F′ + θ′ e₁` (eq. (1)'s reference curvature).
 
+use crate::math::rotation::exp_map;
+use crate::math::vec3::{M3, V3};
 use crate::model::{ArcSpec, Beam, Vec3};
-use crate::rotation::exp_map;
-use crate::vec3::{M3, V3};
 
 #[derive(Clone, Debug)]
 enum Shape {

@@ -9,10 +9,10 @@
 use super::element::BeamElement;
 use crate::elements::loads::LoadKind;
 use crate::elements::{add3, v3, Kernel, StepCtx};
-use crate::rotation::rotate_material;
-use crate::scalar::Real;
+use crate::math::rotation::rotate_material;
+use crate::math::scalar::Real;
+use crate::math::vec3::{M3, V3};
 use crate::time_function::TimeFunction;
-use crate::vec3::{M3, V3};
 
 #[derive(Clone, Debug)]
 pub struct FollowerLineLoad {
@@ -84,7 +84,7 @@ mod tests {
     use super::*;
     use crate::beam::element::tests::{ctx, fixture};
     use crate::elements::fd_harness::tangent_error;
-    use crate::model::Scheme;
+    use crate::math::layout::Scheme;
 
     #[test]
     fn tangents_match_finite_differences_for_every_order_scheme_and_kind() {

@@ -12,7 +12,7 @@
 //! elements a convex combination of per-piece secants, weighted by length ratios in [0, 1].
 
 use super::shape::MAX_NODES;
-use crate::scalar::Real;
+use crate::math::scalar::Real;
 
 /// Most nodes a secant can touch: the pieces of three elements (a step within a window of
 /// one element either side).
@@ -416,7 +416,7 @@ mod tests {
 
     #[test]
     fn secant_tangent_matches_finite_differences() {
-        use crate::scalar::Dual;
+        use crate::math::scalar::Dual;
         let path = BeamPath::new(5, 3);
         // Inside an element, across a boundary, and a zero step (S′ = h″/2 there). At a zero
         // step exactly on a node S has a genuine kink, so no derivative to check.

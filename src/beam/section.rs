@@ -4,7 +4,7 @@
 //! strains, twist and bending curvatures) and sectional velocities `[v₁ v₂ v₃, ω₁ ω₂ ω₃]`, all
 //! measured at the reference line in the section frame (axis 1 along the beam).
 
-use crate::vec3::{M3, V3};
+use crate::math::vec3::{M3, V3};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 

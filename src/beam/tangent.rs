@@ -17,11 +17,11 @@ use super::element::{
 };
 use super::shape::MAX_NODES;
 use crate::elements::{v3, StepCtx, MAX_LOCAL};
-use crate::model::Scheme;
-use crate::rotation::{cayley, cayley_tangent, rodrigues_h};
-use crate::scalar::Dual;
-use crate::system::layout::Layout;
-use crate::vec3::{M3, V3};
+use crate::math::layout::Layout;
+use crate::math::layout::Scheme;
+use crate::math::rotation::{cayley, cayley_tangent, rodrigues_h};
+use crate::math::scalar::Dual;
+use crate::math::vec3::{M3, V3};
 
 type B3 = M3<f64>;
 

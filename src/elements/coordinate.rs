@@ -8,8 +8,8 @@
 
 use super::{Kernel, StepCtx};
 use crate::beam::path::ArcMap;
-use crate::scalar::Real;
-use crate::system::layout::Layout;
+use crate::math::layout::Layout;
+use crate::math::scalar::Real;
 use crate::time_function::TimeFunction;
 
 /// The elastic law of a spring on a coordinate: its force `F(q)` (acting as `−F` on the
@@ -317,9 +317,10 @@ impl Kernel for CoordinateDrive {
 mod tests {
     use super::*;
     use crate::elements::fd_harness::tangent_error;
-    use crate::model::{Scheme, TimeFunctionSpec};
+    use crate::math::layout::Scheme;
+    use crate::math::vec3::V3;
+    use crate::model::TimeFunctionSpec;
     use crate::state::State;
-    use crate::vec3::V3;
 
     #[test]
     fn spring_and_drive_tangents_match_finite_differences() {

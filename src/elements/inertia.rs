@@ -13,9 +13,9 @@
 //! rotor's equilibrium in the frame turning with it, from which it spins steadily.
 
 use super::{add3, v3, Kernel, StepCtx};
-use crate::rotation::{inv_i_minus_half_tilde, rotate_material};
-use crate::scalar::{Dual, Real};
-use crate::vec3::{M3, V3};
+use crate::math::rotation::{inv_i_minus_half_tilde, rotate_material};
+use crate::math::scalar::{Dual, Real};
+use crate::math::vec3::{M3, V3};
 
 /// A steady rotation at angular velocity `omega` (inertial frame, rad/s) about the axis through
 /// `center`.
@@ -42,7 +42,7 @@ impl NodeInertia {
         mass: f64,
         inertia: M3<f64>,
         spin: Option<SteadySpin>,
-        layout: &crate::system::layout::Layout,
+        layout: &crate::math::layout::Layout,
     ) -> Self {
         let mut unknowns: Vec<usize> = (0..6).map(|k| layout.node_delta(node) + k).collect();
         if layout.ed() {
@@ -194,16 +194,16 @@ impl NodeInertia {
 mod tests {
     use super::*;
     use crate::elements::fd_harness::tangent_error;
-    use crate::model::Scheme;
+    use crate::math::layout::Layout;
+    use crate::math::layout::Scheme;
     use crate::state::{NodeState, State};
-    use crate::system::layout::Layout;
 
     #[test]
     fn tangent_matches_finite_differences_ep_and_ed() {
         let jm = M3([[2.0, 0.1, -0.2], [0.1, 3.0, 0.3], [-0.2, 0.3, 4.0]]);
         let node = NodeState {
             x: V3([0.1, 0.2, 0.3]),
-            r: crate::rotation::exp_map(&V3([0.4, -0.2, 0.9])),
+            r: crate::math::rotation::exp_map(&V3([0.4, -0.2, 0.9])),
             v: V3([1.0, -2.0, 0.5]),
             w: V3([0.3, 5.0, -1.0]),
         };
@@ -253,7 +253,7 @@ mod tests {
         };
         let (x, r) = (
             V3([0.1, 0.2, 0.3]),
-            crate::rotation::exp_map(&V3([0.4, -0.2, 0.9])),
+            crate::math::rotation::exp_map(&V3([0.4, -0.2, 0.9])),
         );
         let node = NodeState {
             x,
@@ -278,9 +278,9 @@ mod tests {
         let mut steady = [0.0; 6];
         k.residual(&ctx(Some(1.0)), &[0.0; 6], &mut steady);
         // The exact rotation over h: x_f − c = Q (x − c), R_f = Q R = R cay(r).
-        let q = crate::rotation::exp_map(&spin.omega.scale_f(h));
+        let q = crate::math::rotation::exp_map(&spin.omega.scale_f(h));
         let dx = q.mul_v(&(x - spin.center)) - (x - spin.center);
-        let rc = crate::rotation::cayley_log(&r.transpose().mul_m(&q).mul_m(&r)).unwrap();
+        let rc = crate::math::rotation::cayley_log(&r.transpose().mul_m(&q).mul_m(&r)).unwrap();
         let mut y = [0.0; 6];
         dx.write_to(&mut y[..3]);
         rc.write_to(&mut y[3..]);

@@ -9,11 +9,11 @@
 //! beam's nodes as point loads when the system is compiled.
 
 use super::{add3, v3, Kernel, StepCtx};
-use crate::rotation::rotate_material;
-use crate::scalar::Real;
-use crate::system::layout::Layout;
+use crate::math::layout::Layout;
+use crate::math::rotation::rotate_material;
+use crate::math::scalar::Real;
+use crate::math::vec3::{M3, V3};
 use crate::time_function::TimeFunction;
-use crate::vec3::{M3, V3};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LoadKind {
@@ -96,8 +96,8 @@ impl Kernel for PointLoad {
 mod tests {
     use super::*;
     use crate::elements::fd_harness::tangent_error;
-    use crate::model::Scheme;
-    use crate::rotation::exp_map;
+    use crate::math::layout::Scheme;
+    use crate::math::rotation::exp_map;
     use crate::state::{NodeState, State};
 
     #[test]

@@ -8,11 +8,11 @@ pub mod coordinate;
 pub mod inertia;
 pub mod loads;
 
-use crate::model::Scheme;
-use crate::scalar::{Dual, Real, DUAL_WIDTH};
+use crate::math::layout::Layout;
+use crate::math::layout::Scheme;
+use crate::math::scalar::{Dual, Real, DUAL_WIDTH};
+use crate::math::vec3::V3;
 use crate::state::State;
-use crate::system::layout::Layout;
-use crate::vec3::V3;
 
 /// Largest local block (unknowns of one kernel). A sliding clamp on cubic elements under ED
 /// has the most: a window of 10 beam nodes and the follower (11×12), ζ and its jump, and

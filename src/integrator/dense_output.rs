@@ -15,10 +15,10 @@
 //! interpolated linearly instead (`Channels::step_end_channels`).
 
 use crate::elements::StepCtx;
-use crate::rotation::{cayley, cayley_log, inv_i_minus_half_tilde, orthonormalize};
+use crate::math::rotation::{cayley, cayley_log, inv_i_minus_half_tilde, orthonormalize};
+use crate::math::vec3::V3;
 use crate::state::{NodeState, State};
 use crate::system::System;
-use crate::vec3::V3;
 
 /// Cubic Hermite basis on τ ∈ [0, 1]: the value and its τ-derivative from the end values
 /// `p0`, `p1` and end slopes `m0`, `m1` (per unit τ).
@@ -154,7 +154,7 @@ pub fn state_between(sys: &System, a: &State, b: &State, t: f64) -> State {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rotation::exp_map;
+    use crate::math::rotation::exp_map;
 
     /// A rigid rotation at constant material angular velocity W: R(t) = R₀ exp(W̃ t). Cubic
     /// interpolation recovers it to at least O(h⁴), the angular velocity to O(h³): halving
@@ -174,7 +174,7 @@ mod tests {
             let (a, b) = (at(0.0), at(h));
             let (n, _) = node_between(&a, &b, h, 0.37);
             let exact = at(0.37 * h);
-            let dr = crate::rotation::log_map(&n.r.transpose().mul_m(&exact.r)).norm();
+            let dr = crate::math::rotation::log_map(&n.r.transpose().mul_m(&exact.r)).norm();
             ((n.x - exact.x).norm(), dr, (n.w - exact.w).norm())
         };
         let (x1, r1, w1) = errors(0.2);

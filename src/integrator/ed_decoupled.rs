@@ -35,7 +35,7 @@
 //! size costs ~⅓ of the real LU of ED's size and a solve about half (12-element beam
 //! pendulum: complex 225-unknown solve 6.4 µs against the real 450-unknown 13.7 µs).
 
-use crate::system::layout::Layout;
+use crate::math::layout::Layout;
 use crate::system::sparse::NewtonMatrix;
 use faer::c64;
 
@@ -152,7 +152,7 @@ impl DecoupledMatrix {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::Scheme;
+    use crate::math::layout::Scheme;
 
     /// A linear system's ED Newton matrix (module notes) for mass `m`, stiffness `k` over
     /// the motion pairs and constraint gradient `b`: the decoupled solve is its exact solve.

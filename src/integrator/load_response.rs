@@ -27,8 +27,8 @@ impl Integrator {
     pub fn load_response(&mut self, sys: &System, state: &State, h: f64) -> Option<LoadResponse> {
         let mut rest = state.clone();
         for n in &mut rest.nodes {
-            n.v = crate::vec3::V3::zero();
-            n.w = crate::vec3::V3::zero();
+            n.v = crate::math::vec3::V3::zero();
+            n.w = crate::math::vec3::V3::zero();
         }
         rest.coord_rates.iter_mut().for_each(|r| *r = 0.0);
         let layout = sys.layout;

@@ -13,13 +13,13 @@ use ed_decoupled::DecoupledMatrix;
 pub use load_response::LoadResponse;
 
 use crate::elements::{Kernel, StepCtx};
+use crate::math::layout::Layout;
+use crate::math::rotation::{cayley, check_step_rotation, orthonormalize};
+use crate::math::vec3::V3;
 use crate::model::SimulationSettings;
-use crate::rotation::{cayley, check_step_rotation, orthonormalize};
 use crate::state::{NodeState, State};
-use crate::system::layout::Layout;
 use crate::system::sparse::NewtonMatrix;
 use crate::system::System;
-use crate::vec3::V3;
 
 /// Modified Newton: the most further iterations the kept factors may need before a fresh
 /// tangent pays (a residual-only iteration costs ~1/5 of one with tangent and LU).
@@ -63,7 +63,7 @@ pub struct StepReport {
     pub drive_forces: Vec<f64>,
     /// Per joint kernel: reaction force and moment on node2 at the joint point (inertial), and
     /// the joint frame on node2's side.
-    pub reactions: Vec<(V3<f64>, V3<f64>, crate::vec3::M3<f64>)>,
+    pub reactions: Vec<(V3<f64>, V3<f64>, crate::math::vec3::M3<f64>)>,
     /// Per joint kernel (sliding joints; 0 for others): the path's speed `|P′(ζ_f)|` in m
     /// per unit ζ, and `dζ/dη` there, to turn the driving force on ζ into N along the beam
     /// and per unit η.
@@ -256,7 +256,7 @@ impl Integrator {
     /// configuration happens to be aligned with the axes.
     pub fn block_masks(sys: &System, h: f64) -> Vec<Vec<bool>> {
         use crate::elements::Kernel;
-        use crate::rotation::exp_map;
+        use crate::math::rotation::exp_map;
         let n = sys.layout.n_unknowns();
         let wiggle = |k: f64| 0.37 + (k * 12.9898).sin();
         let mut masks: Vec<Vec<bool>> = Vec::new();

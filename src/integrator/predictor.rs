@@ -8,7 +8,7 @@
 //! 0.2 m at a 5 m blade tip at 20 rad/s with 15 ms steps — far enough that Newton's first
 //! iterates stretch the blades by percents and overshoot the sliding joints.
 
-use crate::vec3::{M3, V3};
+use crate::math::vec3::{M3, V3};
 
 /// Predicted `(Δx, r)` over `h` for a node at orientation `rm` with velocity `v` and material
 /// angular velocity `w`: Δx = h v∥ + (sin θ/|ω|) v⊥ + ((1 − cos θ)/|ω|²) ω×v with ω = R W,
@@ -40,7 +40,7 @@ pub fn turning_increment(rm: &M3<f64>, v: V3<f64>, w: V3<f64>, h: f64) -> (V3<f6
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rotation::{cayley, exp_map};
+    use crate::math::rotation::{cayley, exp_map};
 
     #[test]
     fn a_node_in_steady_rotation_is_predicted_exactly() {

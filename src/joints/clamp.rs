@@ -4,7 +4,7 @@
 
 use super::kinematics::*;
 use super::{Attachment, ConstraintLaw, JointState, Rows};
-use crate::scalar::Real;
+use crate::math::scalar::Real;
 
 #[derive(Clone, Debug)]
 pub struct Clamp {

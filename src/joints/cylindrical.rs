@@ -5,7 +5,7 @@
 use super::prismatic::{slide_gradient, slide_rate, slide_value};
 use super::revolute::{axis_gradient, axis_rate, axis_value, phi_gradient, phi_rate, phi_value};
 use super::{Attachment, ConstraintLaw, JointState, Rows};
-use crate::scalar::Real;
+use crate::math::scalar::Real;
 
 #[derive(Clone, Debug)]
 pub struct Cylindrical {

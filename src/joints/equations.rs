@@ -22,10 +22,10 @@
 
 use super::MAX_ROWS;
 use crate::elements::{add3, eval_kernel, v3, Kernel, StepCtx};
-use crate::model::Scheme;
-use crate::scalar::{Dual, Real};
-use crate::system::layout::Layout;
-use crate::vec3::{M3, V3};
+use crate::math::layout::Layout;
+use crate::math::layout::Scheme;
+use crate::math::scalar::{Dual, Real};
+use crate::math::vec3::{M3, V3};
 
 /// Gradient rows over `NC` columns.
 pub type Grad<T, const NC: usize> = [[T; NC]; MAX_ROWS];

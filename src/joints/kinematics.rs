@@ -2,8 +2,8 @@
 //! body-fixed unit vectors (the universal-joint constraint, eqs. 11–16).
 
 use super::{JointState, Rows};
-use crate::scalar::Real;
-use crate::vec3::V3;
+use crate::math::scalar::Real;
+use crate::math::vec3::V3;
 
 /// Spatial attachment point `x + R p` of side `k`.
 pub fn point<T: Real>(s: &JointState<T>, k: usize) -> V3<T> {

@@ -23,10 +23,10 @@ pub mod spherical;
 pub mod universal;
 
 use crate::elements::{v3, Kernel, StepCtx};
-use crate::rotation::rotate_material;
-use crate::scalar::Real;
-use crate::system::layout::Layout;
-use crate::vec3::{M3, V3};
+use crate::math::layout::Layout;
+use crate::math::rotation::rotate_material;
+use crate::math::scalar::Real;
+use crate::math::vec3::{M3, V3};
 use equations::{ColumnMap, ConstraintTerms, CoordColumn, NodeColumns, StepEquations};
 
 /// Most constraint rows of one joint (the screw joint's 7).
@@ -499,7 +499,7 @@ impl JointKernel {
         let r_frame = if ctx.is_static() {
             sf.r[1]
         } else {
-            crate::rotation::orthonormalize(&(si.r[1] + sf.r[1]).scale_f(0.5))
+            crate::math::rotation::orthonormalize(&(si.r[1] + sf.r[1]).scale_f(0.5))
         };
         (f, m_node - arm.cross(&f), r_frame.mul_m(&at2.triad))
     }
@@ -706,7 +706,7 @@ pub mod law_tests {
     //! (`C_f − C_i = B^D Δ` for large increments) and its rate operator against a
     //! finite-difference derivative of `C` along a motion.
     use super::*;
-    use crate::rotation::{cayley, exp_map};
+    use crate::math::rotation::{cayley, exp_map};
 
     /// Generic attachments (offsets and tilted triads) for the law tests.
     pub fn attachments() -> [Attachment; 2] {
@@ -887,8 +887,8 @@ mod kernel_tests {
     //! ED, with one side a node and the other a node or the ground.
     use super::*;
     use crate::elements::fd_harness::tangent_error;
-    use crate::model::Scheme;
-    use crate::rotation::exp_map;
+    use crate::math::layout::Scheme;
+    use crate::math::rotation::exp_map;
     use crate::state::{NodeState, State};
 
     fn laws() -> Vec<JointLaw> {

@@ -6,7 +6,7 @@
 
 use super::kinematics::*;
 use super::{Attachment, ConstraintLaw, JointState, Rows};
-use crate::scalar::Real;
+use crate::math::scalar::Real;
 
 #[derive(Clone, Debug)]
 pub struct Prismatic {
@@ -74,7 +74,7 @@ mod tests {
     use super::*;
     use crate::joints::law_tests::{assert_law, attachments};
     use crate::joints::MAX_COORDS;
-    use crate::vec3::{M3, V3};
+    use crate::math::vec3::{M3, V3};
 
     #[test]
     fn discrete_gradient_exact_and_rate_consistent() {

@@ -4,7 +4,7 @@
 
 use super::kinematics::*;
 use super::{Attachment, ConstraintLaw, JointState, Rows};
-use crate::scalar::{sinc_half, Real};
+use crate::math::scalar::{sinc_half, Real};
 
 #[derive(Clone, Debug)]
 pub struct Revolute {
@@ -134,8 +134,8 @@ pub fn relative_angle(s: &JointState<f64>) -> f64 {
 mod tests {
     use super::*;
     use crate::joints::law_tests::{assert_law, attachments};
-    use crate::rotation::exp_map;
-    use crate::vec3::V3;
+    use crate::math::rotation::exp_map;
+    use crate::math::vec3::V3;
 
     #[test]
     fn discrete_gradient_exact_and_rate_consistent() {
@@ -145,7 +145,7 @@ mod tests {
     #[test]
     fn phi_is_the_rotation_of_l_about_the_axis() {
         use crate::joints::{JointState, MAX_COORDS};
-        use crate::vec3::M3;
+        use crate::math::vec3::M3;
         let at = [Attachment {
             offset: V3([0.0; 3]),
             triad: M3::identity(),

@@ -4,7 +4,7 @@
 
 use super::cylindrical::Cylindrical;
 use super::{Attachment, ConstraintLaw, JointState, Rows};
-use crate::scalar::Real;
+use crate::math::scalar::Real;
 
 #[derive(Clone, Debug)]
 pub struct Screw {

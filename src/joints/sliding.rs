@@ -29,11 +29,11 @@ use super::{Attachment, ConstraintLaw, JointState, Rows, Side, MAX_COORDS, MAX_R
 use crate::beam::path::{ArcMap, BeamPath, NodeWeights};
 use crate::beam::shape::MAX_NODES;
 use crate::elements::{v3, Kernel, StepCtx};
-use crate::rotation::rotate_material;
-use crate::scalar::Real;
+use crate::math::layout::Layout;
+use crate::math::rotation::rotate_material;
+use crate::math::scalar::Real;
+use crate::math::vec3::{M3, V3};
 use crate::state::State;
-use crate::system::layout::Layout;
-use crate::vec3::{M3, V3};
 
 /// Most beam nodes in a window of three cubic elements.
 pub const MAX_WINDOW_NODES: usize = 3 * (MAX_NODES - 1) + 1;
@@ -990,8 +990,8 @@ mod tests {
     use super::*;
     use crate::elements::fd_harness::tangent_error;
     use crate::joints::law_tests::{assert_law, attachments};
-    use crate::model::Scheme;
-    use crate::rotation::exp_map;
+    use crate::math::layout::Scheme;
+    use crate::math::rotation::exp_map;
     use crate::state::NodeState;
 
     const KINDS: [SlidingKind; 3] = [SlidingKind::Point, SlidingKind::Screw, SlidingKind::Clamp];

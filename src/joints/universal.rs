@@ -11,7 +11,7 @@
 use super::kinematics::*;
 use super::revolute::{angle_gradient, angle_rate, angle_value, AngleTerms};
 use super::{Attachment, ConstraintLaw, JointState, Rows};
-use crate::scalar::Real;
+use crate::math::scalar::Real;
 
 /// φ₁: `g₁₃ sin φ₁ − g₂₃ cos φ₁ = 0`.
 const PHI1: AngleTerms = ((0, 2, 1.0), (1, 2, -1.0));

@@ -975,16 +975,7 @@ impl Sensor {
     }
 }
 
-#[derive(Serialize, Deserialize, JsonSchema, Clone, Copy, Debug, PartialEq, Eq, Default)]
-#[serde(rename_all = "lowercase")]
-pub enum Scheme {
-    /// Energy preserving: total energy conserved to Newton tolerance, no numerical damping.
-    Ep,
-    /// Energy decaying (strain-rate jump form): energy never increases; unresolved high
-    /// frequencies are annihilated.
-    #[default]
-    Ed,
-}
+pub use crate::math::layout::Scheme;
 
 /// What a run computes.
 #[derive(Serialize, Deserialize, JsonSchema, Clone, Copy, Debug, PartialEq, Eq, Default)]

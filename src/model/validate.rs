@@ -283,8 +283,8 @@ impl Model {
                 );
             }
             if let Some(m) = &o.matrix {
-                let r = crate::vec3::M3(*m);
-                if let Err(e) = crate::rotation::check_rotation(&r, 1e-9) {
+                let r = crate::math::vec3::M3(*m);
+                if let Err(e) = crate::math::rotation::check_rotation(&r, 1e-9) {
                     c.err(
                         format!("{p}.orientation.matrix"),
                         format!(

@@ -6,12 +6,12 @@
 //! for some weights W: one KKT matrix, factored once, several right-hand sides.
 
 use crate::joints::RateTerm;
+use crate::math::layout::Layout;
+use crate::math::vec3::{M3, V3};
 use crate::model::{Model, Scheme};
 use crate::state::State;
-use crate::system::layout::Layout;
 use crate::system::sparse::NewtonMatrix;
 use crate::system::System;
-use crate::vec3::{M3, V3};
 
 /// The factored KKT matrix of a velocity projection at one configuration, and its weights.
 struct VelocityProjection {

@@ -11,11 +11,11 @@ pub use initial_velocities::project_initial_velocities;
 use crate::elements::StepCtx;
 use crate::integrator::{Integrator, StepFailure, StepReport};
 use crate::joints::Joint;
+use crate::math::vec3::V3;
 use crate::model::{Analysis, Model, ModelErrors, Scheme, SimulationSettings, StepControl};
 use crate::sensors::{Channels, Totals};
 use crate::state::State;
 use crate::system::System;
-use crate::vec3::V3;
 
 /// One step's size and the mean velocity and spatial angular velocity of each node carrying
 /// inertia (in `System::inertias` order).

@@ -3,9 +3,9 @@
 
 use super::{Simulation, StepMeans};
 use crate::integrator::{StepFailure, StepReport};
+use crate::math::vec3::V3;
 use crate::model::Scheme;
 use crate::state::State;
-use crate::vec3::V3;
 
 impl Simulation {
     /// The local error indicator of a converged step from the current state to `end` (e ≤ 1
@@ -332,6 +332,9 @@ impl Controller {
 
 /// The rotation parameters (Cayley) taking `from` to `to` in `from`'s frame; a half-turn or
 /// more (never within a converged step) reads as infinite.
-pub(super) fn rotation_between(from: &crate::vec3::M3<f64>, to: &crate::vec3::M3<f64>) -> V3<f64> {
-    crate::rotation::cayley_log(&from.transpose().mul_m(to)).unwrap_or(V3([f64::INFINITY; 3]))
+pub(super) fn rotation_between(
+    from: &crate::math::vec3::M3<f64>,
+    to: &crate::math::vec3::M3<f64>,
+) -> V3<f64> {
+    crate::math::rotation::cayley_log(&from.transpose().mul_m(to)).unwrap_or(V3([f64::INFINITY; 3]))
 }

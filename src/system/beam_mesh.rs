@@ -6,9 +6,9 @@ use crate::beam::element::{write_history, GaussPoint, HISTORY_PER_POINT};
 use crate::beam::geometry::ReferenceLine;
 use crate::beam::section::Section;
 use crate::beam::shape::{gauss, lagrange, node_coordinates, reduced_points, MAX_NODES};
+use crate::math::vec3::{M3, V3};
 use crate::model::Beam;
 use crate::state::NodeState;
-use crate::vec3::{M3, V3};
 
 /// One element before numbering of unknowns: its nodes, Gauss points and initial history.
 pub struct MeshedElement {

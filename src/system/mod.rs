@@ -2,7 +2,6 @@
 //! nodes), joint attachments in each node's triad, coordinates, constraint rows and kernels.
 
 mod beam_mesh;
-pub mod layout;
 pub mod redundancy;
 mod sliding;
 pub mod sparse;
@@ -20,12 +19,12 @@ use crate::joints::{
     spherical::Spherical, universal::Universal,
 };
 use crate::joints::{Attachment, ConstraintLaw, Joint, JointKernel, JointLaw, Side};
+use crate::math::layout::Layout;
+use crate::math::rotation::{exp_map, orthonormalize};
+use crate::math::vec3::{M3, V3};
 use crate::model::{self, Model, ModelError, ModelErrors, Scheme, GROUND};
-use crate::rotation::{exp_map, orthonormalize};
 use crate::state::{NodeState, State};
 use crate::time_function::TimeFunction;
-use crate::vec3::{M3, V3};
-use layout::Layout;
 use std::collections::HashMap;
 
 /// The elements a model beam became: `beams[first .. first + count]`, in order along it.
@@ -978,7 +977,7 @@ impl System {
 
     /// Human-readable owner of a global unknown/row, for diagnostics.
     pub fn describe_row(&self, i: usize) -> String {
-        use layout::RowOwner::*;
+        use crate::math::layout::RowOwner::*;
         const COMP: [&str; 6] = [
             "force x", "force y", "force z", "moment 1", "moment 2", "moment 3",
         ];

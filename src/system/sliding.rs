@@ -6,9 +6,9 @@ use crate::beam::path::{ArcMap, BeamPath};
 use crate::elements::coordinate::SpringLaw;
 use crate::joints::sliding::{orthonormal_frame, SlidingKind};
 use crate::joints::Attachment;
+use crate::math::vec3::{M3, V3};
 use crate::model::SpringDamper;
 use crate::state::NodeState;
-use crate::vec3::{M3, V3};
 
 /// The beam point `P(ζ)` and its section frame (interpolated directors made orthonormal) in
 /// the initial configuration.
@@ -104,7 +104,7 @@ pub fn follower_triad(
             break;
         }
         let theta = jac.inverse().mul_v(&f).scale_f(-1.0);
-        e = crate::rotation::exp_map(&theta).mul_m(&e);
+        e = crate::math::rotation::exp_map(&theta).mul_m(&e);
     }
     e
 }

@@ -6,8 +6,8 @@
 //! behind every discrete force of the paper is (A5)/(A6): with `R = cay(r)`,
 //! `R − I = r̃ (R + I)/2`, so `e_f − e_i = r̃ (e_f + e_i)/2` exactly (eq. 7).
 
-use crate::scalar::Real;
-use crate::vec3::{M3, V3};
+use crate::math::scalar::Real;
+use crate::math::vec3::{M3, V3};
 
 /// The largest incremental rotation accepted within one step. Rodrigues parameters grow as
 /// `2 tan(φ/2)` and are infinite at 180°; past about 150° a step is no longer a meaningful
@@ -307,7 +307,7 @@ mod tests {
 
     #[test]
     fn rotate_material_is_r_i_cayley_to_first_order() {
-        use crate::scalar::Dual;
+        use crate::math::scalar::Dual;
         let ri = exp_map(&v([0.3, -1.2, 0.4]));
         let r = v([0.8, 0.1, -2.0]);
         let rd = V3(std::array::from_fn(|k| Dual::<3>::seeded(r.0[k], Some(k))));

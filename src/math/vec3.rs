@@ -1,7 +1,7 @@
 //! 3-vectors and 3×3 matrices over any [`Real`], small and `Copy`, for the kinematics of nodes,
 //! triads and joints. Components are in the inertial frame unless a name says otherwise.
 
-use crate::scalar::Real;
+use crate::math::scalar::Real;
 use std::ops::{Add, AddAssign, Index, IndexMut, Mul, Neg, Sub, SubAssign};
 
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -6,7 +6,21 @@
 //! conditioning does not degrade as the step shrinks (`tests/conditioning.rs`). Every unknown also names a residual row, so the
 //! Newton matrix is square with a structurally symmetric pattern.
 
-use crate::model::Scheme;
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+/// The time scheme, which fixes the unknowns a step solves for (also the model file's
+/// `simulation.scheme`).
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Scheme {
+    /// Energy preserving: total energy conserved to Newton tolerance, no numerical damping.
+    Ep,
+    /// Energy decaying (strain-rate jump form): energy never increases; unresolved high
+    /// frequencies are annihilated.
+    #[default]
+    Ed,
+}
 
 #[derive(Clone, Copy, Debug)]
 pub struct Layout {

@@ -1,0 +1,199 @@
+//! The crate's layering (issue 18): the math layer imports nothing else from the crate; the
+//! kernels (beams, joints, elements) and the runtime state import nothing from the file format
+//! or the layers above them; the file format imports nothing from the physics. Checked on the
+//! `crate::` paths of every source file outside its tests. `KNOWN` lists the imports that still
+//! run against the layering, to be removed one by one: the test fails on any new one, and on a
+//! listed one that is gone (so the list only shrinks).
+
+use std::collections::BTreeSet;
+use std::path::Path;
+
+/// (layer, the top-level modules it may not import).
+const RULES: &[(&str, &[&str])] = &[
+    (
+        "math",
+        &[
+            "beam",
+            "elements",
+            "integrator",
+            "joints",
+            "model",
+            "sensors",
+            "simulation",
+            "state",
+            "system",
+            "time_function",
+            "python",
+            "testing",
+        ],
+    ),
+    (
+        "state",
+        &[
+            "beam",
+            "elements",
+            "integrator",
+            "joints",
+            "model",
+            "sensors",
+            "simulation",
+            "system",
+            "time_function",
+            "python",
+        ],
+    ),
+    (
+        "time_function",
+        &[
+            "beam",
+            "elements",
+            "integrator",
+            "joints",
+            "model",
+            "sensors",
+            "simulation",
+            "state",
+            "system",
+            "python",
+        ],
+    ),
+    (
+        "beam",
+        &[
+            "integrator",
+            "model",
+            "sensors",
+            "simulation",
+            "system",
+            "python",
+        ],
+    ),
+    (
+        "joints",
+        &[
+            "integrator",
+            "model",
+            "sensors",
+            "simulation",
+            "system",
+            "python",
+        ],
+    ),
+    (
+        "elements",
+        &[
+            "integrator",
+            "model",
+            "sensors",
+            "simulation",
+            "system",
+            "python",
+        ],
+    ),
+    (
+        "model",
+        &[
+            "beam",
+            "elements",
+            "integrator",
+            "joints",
+            "sensors",
+            "simulation",
+            "state",
+            "system",
+            "time_function",
+            "python",
+        ],
+    ),
+];
+
+/// Imports that still run against the layering: (file, imported module).
+const KNOWN: &[(&str, &str)] = &[
+    // The file format's beam type computes its geometry, and its specs are the physics' types.
+    ("src/beam/geometry.rs", "model"),
+    ("src/model/mod.rs", "beam"),
+    ("src/model/mod.rs", "elements"),
+    // Validation (to move beside each item's compilation) parses expressions and geometry.
+    ("src/model/validate.rs", "beam"),
+    ("src/model/validate.rs", "time_function"),
+    // Time functions are built from the file format's specs.
+    ("src/time_function/mod.rs", "model"),
+];
+
+fn crate_imports(text: &str) -> BTreeSet<String> {
+    let mut out = BTreeSet::new();
+    for line in text.lines() {
+        let line = line.trim_start();
+        if line.starts_with("#[cfg(test)]") {
+            break; // tests sit at the end of a file and may use anything
+        }
+        if line.starts_with("//") {
+            continue;
+        }
+        let mut rest = line;
+        while let Some(i) = rest.find("crate::") {
+            rest = &rest[i + 7..];
+            let name: String = rest
+                .chars()
+                .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+                .collect();
+            out.insert(name);
+        }
+    }
+    out
+}
+
+fn sources(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            sources(&p, out);
+        } else if p.extension().is_some_and(|x| x == "rs") {
+            out.push(p);
+        }
+    }
+}
+
+#[test]
+fn imports_follow_the_layering() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files = Vec::new();
+    sources(&root.join("src"), &mut files);
+    let mut found = BTreeSet::new();
+    for f in &files {
+        let rel = f
+            .strip_prefix(root)
+            .unwrap()
+            .to_string_lossy()
+            .replace('\\', "/");
+        let layer = rel
+            .trim_start_matches("src/")
+            .split('/')
+            .next()
+            .unwrap()
+            .trim_end_matches(".rs")
+            .to_string();
+        let Some((_, forbidden)) = RULES.iter().find(|(l, _)| *l == layer) else {
+            continue;
+        };
+        for m in crate_imports(&std::fs::read_to_string(f).unwrap()) {
+            if forbidden.contains(&m.as_str()) {
+                found.insert((rel.clone(), m));
+            }
+        }
+    }
+    let known: BTreeSet<(String, String)> = KNOWN
+        .iter()
+        .map(|(f, m)| (f.to_string(), m.to_string()))
+        .collect();
+    let new: Vec<_> = found.difference(&known).collect();
+    let gone: Vec<_> = known.difference(&found).collect();
+    assert!(
+        new.is_empty(),
+        "imports against the layering (see tests/layering.rs): {new:?}"
+    );
+    assert!(
+        gone.is_empty(),
+        "fixed, so remove from KNOWN in tests/layering.rs: {gone:?}"
+    );
+}
