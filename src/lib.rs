@@ -12,7 +12,6 @@ pub mod state;
 pub mod system;
 #[doc(hidden)]
 pub mod testing;
-pub mod time_function;
 
 #[cfg(feature = "python")]
 mod python;

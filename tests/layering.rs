@@ -113,11 +113,8 @@ const KNOWN: &[(&str, &str)] = &[
     ("src/beam/geometry.rs", "model"),
     ("src/model/mod.rs", "beam"),
     ("src/model/mod.rs", "elements"),
-    // Validation (to move beside each item's compilation) parses expressions and geometry.
+    // Validation (to move beside each item's compilation) checks geometry and sections.
     ("src/model/validate.rs", "beam"),
-    ("src/model/validate.rs", "time_function"),
-    // Time functions are built from the file format's specs.
-    ("src/time_function/mod.rs", "model"),
 ];
 
 fn crate_imports(text: &str) -> BTreeSet<String> {

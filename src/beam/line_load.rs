@@ -11,8 +11,8 @@ use crate::elements::loads::LoadKind;
 use crate::elements::{add3, v3, Kernel, StepCtx};
 use crate::math::rotation::rotate_material;
 use crate::math::scalar::Real;
+use crate::math::time_function::TimeFunction;
 use crate::math::vec3::{M3, V3};
-use crate::time_function::TimeFunction;
 
 #[derive(Clone, Debug)]
 pub struct FollowerLineLoad {

@@ -10,7 +10,7 @@ use super::{Kernel, StepCtx};
 use crate::beam::path::ArcMap;
 use crate::math::layout::Layout;
 use crate::math::scalar::Real;
-use crate::time_function::TimeFunction;
+use crate::math::time_function::TimeFunction;
 
 /// The elastic law of a spring on a coordinate: its force `F(q)` (acting as `−F` on the
 /// coordinate) and energy `V(q)`.

@@ -12,8 +12,8 @@ use super::{add3, v3, Kernel, StepCtx};
 use crate::math::layout::Layout;
 use crate::math::rotation::rotate_material;
 use crate::math::scalar::Real;
+use crate::math::time_function::TimeFunction;
 use crate::math::vec3::{M3, V3};
-use crate::time_function::TimeFunction;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LoadKind {

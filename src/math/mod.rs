@@ -1,7 +1,9 @@
 //! The bottom layer: scalars (reals and dual numbers), small vectors and matrices, finite
-//! rotations, and the numbering of a step's unknowns. It imports nothing else from the crate;
-//! the kernels (beams, joints, elements), the compiler and the file format build on it.
+//! rotations, functions of time (with the plain-data specs the file format reads them from),
+//! and the numbering of a step's unknowns. It imports nothing else from the crate; the kernels
+//! (beams, joints, elements), the compiler and the file format build on it.
 pub mod layout;
 pub mod rotation;
 pub mod scalar;
+pub mod time_function;
 pub mod vec3;

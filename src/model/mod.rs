@@ -267,23 +267,7 @@ impl Inertia {
     }
 }
 
-/// A function of time: a number, an expression of `t` (e.g. `"0.5*sin(2*pi*t)"`) or a table.
-#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
-#[serde(untagged)]
-pub enum TimeFunctionSpec {
-    Constant(f64),
-    Expression(String),
-    /// Piecewise-linear in `t`, held constant beyond the ends.
-    Table(TableSpec),
-}
-
-/// A table of a function of time: `{t: [...], value: [...]}` (no other keys).
-#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
-#[serde(deny_unknown_fields)]
-pub struct TableSpec {
-    pub t: Vec<f64>,
-    pub value: Vec<f64>,
-}
+pub use crate::math::time_function::{TableSpec, TimeFunctionSpec};
 
 /// A spring and damper on a joint's relative coordinate: linear (`stiffness`, `rest`) or
 /// nonlinear (`table`), with linear viscous `damping`.

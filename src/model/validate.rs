@@ -2,7 +2,7 @@
 //! (`joints[3].axis`) and its name, and says how to fix it.
 
 use super::*;
-use crate::time_function::TimeFunction;
+use crate::math::time_function::TimeFunction;
 use std::collections::HashMap;
 use std::fmt;
 

@@ -21,10 +21,10 @@ use crate::joints::{
 use crate::joints::{Attachment, ConstraintLaw, Joint, JointKernel, JointLaw, Side};
 use crate::math::layout::Layout;
 use crate::math::rotation::{exp_map, orthonormalize};
+use crate::math::time_function::TimeFunction;
 use crate::math::vec3::{M3, V3};
 use crate::model::{self, Model, ModelError, ModelErrors, Scheme, GROUND};
 use crate::state::{NodeState, State};
-use crate::time_function::TimeFunction;
 use std::collections::HashMap;
 
 /// The elements a model beam became: `beams[first .. first + count]`, in order along it.

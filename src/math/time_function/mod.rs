@@ -9,9 +9,28 @@
 pub mod expression;
 pub mod jet;
 
-use crate::model::TimeFunctionSpec;
 use expression::Expression;
 use jet::Jet;
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+/// A function of time: a number, an expression of `t` (e.g. `"0.5*sin(2*pi*t)"`) or a table.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(untagged)]
+pub enum TimeFunctionSpec {
+    Constant(f64),
+    Expression(String),
+    /// Piecewise-linear in `t`, held constant beyond the ends.
+    Table(TableSpec),
+}
+
+/// A table of a function of time: `{t: [...], value: [...]}` (no other keys).
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct TableSpec {
+    pub t: Vec<f64>,
+    pub value: Vec<f64>,
+}
 
 #[derive(Clone, Debug)]
 pub enum TimeFunction {
@@ -54,7 +73,7 @@ impl TimeFunction {
                 }
                 Ok(f)
             }
-            TimeFunctionSpec::Table(crate::model::TableSpec { t, value }) => {
+            TimeFunctionSpec::Table(TableSpec { t, value }) => {
                 if t.len() != value.len() || t.is_empty() {
                     return Err(format!(
                         "table needs equally long, non-empty `t` and `value` (got {} and {})",
@@ -203,7 +222,7 @@ mod tests {
 
     #[test]
     fn table_interpolates_and_holds_ends() {
-        let f = TimeFunction::new(&TimeFunctionSpec::Table(crate::model::TableSpec {
+        let f = TimeFunction::new(&TimeFunctionSpec::Table(TableSpec {
             t: vec![0.0, 1.0, 3.0],
             value: vec![0.0, 2.0, 0.0],
         }))
@@ -213,12 +232,10 @@ mod tests {
         assert_eq!(f.value(10.0), 0.0);
         assert_eq!(f.rate(0.5), 2.0);
         assert_eq!(f.rate(2.0), -1.0);
-        assert!(
-            TimeFunction::new(&TimeFunctionSpec::Table(crate::model::TableSpec {
-                t: vec![0.0, 0.0],
-                value: vec![1.0, 2.0]
-            }))
-            .is_err()
-        );
+        assert!(TimeFunction::new(&TimeFunctionSpec::Table(TableSpec {
+            t: vec![0.0, 0.0],
+            value: vec![1.0, 2.0]
+        }))
+        .is_err());
     }
 }
