@@ -370,31 +370,7 @@ fn split_pass<K: StepEquations<NC>, const NC: usize, const W: usize, const M: us
     let (yd, rd) = (&yd[..n], &mut rd[..n]);
     k.with_equations(ctx, yd, |map, terms| {
         add_constraint_equations(ctx, map, terms, yd, rd);
-        let mut nodes = [NodeColumns {
-            col: 0,
-            delta: 0,
-            jump: None,
-            r_i: M3::identity(),
-            r_f: M3::identity(),
-        }; MAX_MAP_NODES];
-        let nn = map.nodes.len();
-        assert!(
-            nn <= MAX_MAP_NODES,
-            "the split differentiates two-node maps"
-        );
-        for (v, m) in nodes.iter_mut().zip(map.nodes) {
-            *v = m.values();
-            if let Some(j) = m.jump {
-                for c in 0..6 {
-                    jump_of[m.delta + c] = Some(j + c);
-                }
-            }
-        }
-        if map.per == 2 {
-            for c in map.coords {
-                jump_of[c.slot] = Some(c.slot + 1);
-            }
-        }
+        let (nodes, nn) = node_values(map, &mut jump_of);
         let map_re = ColumnMap {
             nodes: &nodes[..nn],
             coords: map.coords,
@@ -421,6 +397,22 @@ fn split_pass<K: StepEquations<NC>, const NC: usize, const W: usize, const M: us
             res[idx[i]] += r.re;
         }
     }
+    add_dual_columns(rd, slots, &jump_of[..n], tangent, vals, pos);
+}
+
+/// The geometric columns from the dual parts of the residual `rd` (seeded on `slots`): as
+/// they are, or for ED's decoupled surrogate each motion row's stiffness moved to its jump
+/// row as a linear stiffness enters it (`−4/9` on the increments, `1/9` on the jumps: `K/18`
+/// and `−2K/9` of `K = 2 ∂P/∂Δ`).
+fn add_dual_columns<const W: usize>(
+    rd: &[Dual<W>],
+    slots: &[usize],
+    jump_of: &[Option<usize>],
+    tangent: Tangent,
+    vals: &mut [f64],
+    pos: &[usize],
+) {
+    let n = rd.len();
     for (i, r) in rd.iter().enumerate() {
         match (tangent, jump_of[i]) {
             (Tangent::Decoupled, Some(ji)) => {
@@ -438,6 +430,40 @@ fn split_pass<K: StepEquations<NC>, const NC: usize, const W: usize, const M: us
             }
         }
     }
+}
+
+/// The map's node blocks as values, and each motion slot's jump slot into `jump_of` (for
+/// the decoupled surrogate).
+fn node_values<T: Real>(
+    map: &ColumnMap<T>,
+    jump_of: &mut [Option<usize>],
+) -> ([NodeColumns<f64>; MAX_MAP_NODES], usize) {
+    let mut nodes = [NodeColumns {
+        col: 0,
+        delta: 0,
+        jump: None,
+        r_i: M3::identity(),
+        r_f: M3::identity(),
+    }; MAX_MAP_NODES];
+    let nn = map.nodes.len();
+    assert!(
+        nn <= MAX_MAP_NODES,
+        "the split differentiates two-node maps"
+    );
+    for (v, m) in nodes.iter_mut().zip(map.nodes) {
+        *v = m.values();
+        if let Some(j) = m.jump {
+            for c in 0..6 {
+                jump_of[m.delta + c] = Some(j + c);
+            }
+        }
+    }
+    if map.per == 2 {
+        for c in map.coords {
+            jump_of[c.slot] = Some(c.slot + 1);
+        }
+    }
+    (nodes, nn)
 }
 
 /// Most node blocks in the map of a kernel differentiated by the split (two nodes).
