@@ -691,23 +691,10 @@ impl Integrator {
             if !m.finite {
                 return Err(self.not_finite(sys, ctx, &m));
             }
-            // A residual that stopped falling, or a tiny update, shows convergence only
-            // after a fresh tangent's update, or after kept factors failed to halve it twice
-            // in a row: with kept factors the iteration contracts linearly, and one slow
-            // contraction is neither round-off nor convergence; a second one below the
-            // round-off floor is round-off (else every step of a model whose residual
-            // bottoms out just above the tolerance would pay a fresh tangent and LU).
             let stalled = best.as_ref().is_some_and(|b| m.force > 0.5 * b.force);
             stalls = if stalled { stalls + 1 } else { 0 };
             let judged = best.as_ref().filter(|_| fresh_update || stalls >= 2);
-            // The increment test (an explicit setting) accepts a residual at its round-off
-            // floor when the last update moved nothing by more than `increment_tol`; the
-            // constraints must hold to as much.
-            let settled = small_update
-                && fresh_update
-                && m.force <= 1e-6 * m.force_scale
-                && (m.constraint <= self.increment_tol * sys.length_ref
-                    || m.constraints_hold(sys, self.tol, judged));
+            let settled = small_update && fresh_update && self.settled(sys, &m, judged);
             if m.converged(sys, self.tol, judged) || settled {
                 if reuse && !settled {
                     // Modified Newton stops just below the tolerance (linear convergence,
@@ -722,18 +709,7 @@ impl Integrator {
             if reuse
                 && self.contraction_too_slow(sys, &m, [previous.as_ref(), before_previous.as_ref()])
             {
-                // The kept factors no longer pay: a fresh tangent at this iterate; the
-                // exact matrix's if the decoupled system's did not pay even fresh.
-                let missed = self.factors == Factors::Decoupled && self.factored_this_solve;
-                if missed {
-                    self.decoupled_missed();
-                }
-                // After a miss the exact tangent those factors came from, if it is still
-                // assembled (iterations since assembled residuals only), is factored at once.
-                if !(missed && self.values_exact) {
-                    let tangent = self.fresh_factors(ctx);
-                    self.assemble_for(sys, ctx, Some(tangent));
-                }
+                self.prepare_fresh_tangent(sys, ctx);
                 reuse = false;
             }
             if best.as_ref().is_none_or(|b| m.force < b.force) {
@@ -741,16 +717,7 @@ impl Integrator {
             }
             before_previous = previous.replace(m);
             if it == self.max_iter {
-                let window = clamped.map_or(String::new(), |name| format!("; the contact point of sliding joint `{name}` was held at the edge of its window (it would move more than one element in this step)"));
-                return Err(step_failure(
-                    ctx,
-                    format!(
-                        "Newton did not converge in {} iterations: {}{window}",
-                        self.max_iter,
-                        m.describe(sys, self.tol)
-                    ),
-                    true,
-                ));
+                return Err(self.not_converged(sys, ctx, &m, clamped));
             }
             self.apply_update(reuse, ctx)?;
             fresh_update = !reuse;
@@ -766,6 +733,58 @@ impl Integrator {
         self.check_contacts_on_beams(sys, ctx)?;
         self.last_converged = true;
         Ok(report)
+    }
+
+    /// The kept factors no longer pay: the tangent at this iterate is assembled for fresh
+    /// factors — the exact matrix's if the decoupled system's did not pay even fresh, and
+    /// then, if that exact tangent is still the one assembled (iterations since assembled
+    /// residuals only), it is factored at once without assembling again.
+    fn prepare_fresh_tangent(&mut self, sys: &System, ctx: &StepCtx) {
+        let missed = self.factors == Factors::Decoupled && self.factored_this_solve;
+        if missed {
+            self.decoupled_missed();
+        }
+        if !(missed && self.values_exact) {
+            let tangent = self.fresh_factors(ctx);
+            self.assemble_for(sys, ctx, Some(tangent));
+        }
+    }
+
+    /// The failure of a step whose Newton iteration ran out of iterations at `m`, naming a
+    /// sliding contact held at its window's edge if one was (`clamped`).
+    fn not_converged(
+        &self,
+        sys: &System,
+        ctx: &StepCtx,
+        m: &Measure,
+        clamped: Option<&str>,
+    ) -> StepFailure {
+        let window = clamped.map_or(String::new(), |name| format!("; the contact point of sliding joint `{name}` was held at the edge of its window (it would move more than one element in this step)"));
+        step_failure(
+            ctx,
+            format!(
+                "Newton did not converge in {} iterations: {}{window}",
+                self.max_iter,
+                m.describe(sys, self.tol)
+            ),
+            true,
+        )
+    }
+
+    /// The increment test (an explicit setting): after a fresh tangent's update that moved
+    /// nothing by more than `increment_tol`, a residual at its round-off floor is accepted;
+    /// the constraints must hold to as much.
+    ///
+    /// (In `newton`, a residual that stopped falling, or a tiny update, shows convergence only
+    /// after a fresh tangent's update, or after kept factors failed to halve it twice in a
+    /// row — `judged`: with kept factors the iteration contracts linearly, and one slow
+    /// contraction is neither round-off nor convergence; a second one below the round-off
+    /// floor is round-off, else every step of a model whose residual bottoms out just above
+    /// the tolerance would pay a fresh tangent and LU.)
+    fn settled(&self, sys: &System, m: &Measure, judged: Option<&Measure>) -> bool {
+        m.force <= 1e-6 * m.force_scale
+            && (m.constraint <= self.increment_tol * sys.length_ref
+                || m.constraints_hold(sys, self.tol, judged))
     }
 
     /// Whether the LU factors in hand may serve this step: modified Newton, dynamics, and
