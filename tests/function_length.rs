@@ -4,8 +4,9 @@
 //! and on a listed one that is now short or gone, which must leave the list). Lengths count the
 //! lines from `fn` to its closing brace in rustfmt's layout.
 
+mod common;
+
 use std::collections::BTreeMap;
-use std::path::Path;
 
 const LIMIT: usize = 80;
 
@@ -21,16 +22,9 @@ const KNOWN: &[(&str, &str, usize)] = &[
 ];
 
 /// Every function (outside a file's tests) with its length: (file, name) → lines.
-fn functions(root: &Path) -> BTreeMap<(String, String), usize> {
+fn functions() -> BTreeMap<(String, String), usize> {
     let mut out = BTreeMap::new();
-    let mut files = Vec::new();
-    collect(&root.join("src"), &mut files);
-    for f in files {
-        let rel = f
-            .strip_prefix(root)
-            .unwrap()
-            .to_string_lossy()
-            .replace('\\', "/");
+    for (rel, f) in common::rust_sources() {
         let text = std::fs::read_to_string(&f).unwrap();
         let lines: Vec<&str> = text.lines().collect();
         let end = lines
@@ -88,20 +82,9 @@ fn fn_name(line: &str) -> Option<String> {
     (!name.is_empty()).then_some(name)
 }
 
-fn collect(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
-    for e in std::fs::read_dir(dir).unwrap() {
-        let p = e.unwrap().path();
-        if p.is_dir() {
-            collect(&p, out);
-        } else if p.extension().is_some_and(|x| x == "rs") {
-            out.push(p);
-        }
-    }
-}
-
 #[test]
 fn functions_stay_short() {
-    let found = functions(Path::new(env!("CARGO_MANIFEST_DIR")));
+    let found = functions();
     let known: BTreeMap<(String, String), usize> = KNOWN
         .iter()
         .map(|(f, n, l)| ((f.to_string(), n.to_string()), *l))

@@ -5,8 +5,9 @@
 //! run against the layering, to be removed one by one: the test fails on any new one, and on a
 //! listed one that is gone (so the list only shrinks).
 
+mod common;
+
 use std::collections::BTreeSet;
-use std::path::Path;
 
 /// (layer, the top-level modules it may not import).
 const RULES: &[(&str, &[&str])] = &[
@@ -140,29 +141,10 @@ fn crate_imports(text: &str) -> BTreeSet<String> {
     out
 }
 
-fn sources(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
-    for e in std::fs::read_dir(dir).unwrap() {
-        let p = e.unwrap().path();
-        if p.is_dir() {
-            sources(&p, out);
-        } else if p.extension().is_some_and(|x| x == "rs") {
-            out.push(p);
-        }
-    }
-}
-
 #[test]
 fn imports_follow_the_layering() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut files = Vec::new();
-    sources(&root.join("src"), &mut files);
     let mut found = BTreeSet::new();
-    for f in &files {
-        let rel = f
-            .strip_prefix(root)
-            .unwrap()
-            .to_string_lossy()
-            .replace('\\', "/");
+    for (rel, f) in common::rust_sources() {
         let layer = rel
             .trim_start_matches("src/")
             .split('/')
@@ -173,7 +155,7 @@ fn imports_follow_the_layering() {
         let Some((_, forbidden)) = RULES.iter().find(|(l, _)| *l == layer) else {
             continue;
         };
-        for m in crate_imports(&std::fs::read_to_string(f).unwrap()) {
+        for m in crate_imports(&std::fs::read_to_string(&f).unwrap()) {
             if forbidden.contains(&m.as_str()) {
                 found.insert((rel.clone(), m));
             }
