@@ -394,40 +394,12 @@ impl Channels {
         let mut energy: Option<[f64; 8]> = None;
         for (src, k) in &self.sources {
             let v = match src {
-                Source::Position(a) => state.nodes[*a].x.0[*k],
-                Source::Relative(a, b) => {
-                    let (n, r) = (&state.nodes[*a], &state.nodes[*b]);
-                    let d = r.r.tmul_v(&(n.x - r.x));
-                    if *k < 3 {
-                        d.0[*k]
-                    } else {
-                        (d.norm_sq() - d.0[k - 3].powi(2)).max(0.0).sqrt()
-                    }
-                }
-                Source::Displacement(a) => state.nodes[*a].x.0[*k] - sys.initial.nodes[*a].x.0[*k],
-                Source::Rotation(a) => {
-                    let r = &state.nodes[*a].r;
-                    if *k < 3 {
-                        log_map(&r.mul_m(&sys.initial.nodes[*a].r.transpose())).0[*k]
-                    } else {
-                        r.0[(k - 3) / 3][(k - 3) % 3]
-                    }
-                }
-                Source::Velocity(a) => {
-                    let n = &state.nodes[*a];
-                    if *k < 3 {
-                        n.v.0[*k]
-                    } else {
-                        n.omega().0[k - 3]
-                    }
-                }
-                Source::Coordinate(c) => {
-                    if *k == 0 {
-                        state.coords[*c]
-                    } else {
-                        state.coord_rates[*c]
-                    }
-                }
+                Source::Position(_)
+                | Source::Relative(..)
+                | Source::Displacement(_)
+                | Source::Rotation(_)
+                | Source::Velocity(_)
+                | Source::Coordinate(_) => node_channel(src, *k, sys, state),
                 // Step quantities are filled in by `step_values` and interpolation.
                 Source::Reaction(_) => f64::NAN,
                 Source::Contact(j) => {
@@ -489,32 +461,80 @@ impl Channels {
                     }
                 }
                 Source::Energy => {
-                    let e = energy.get_or_insert_with(|| {
-                        let t = sys.kinetic_energy(state);
-                        let p = sys.potential_energy(state);
-                        let balance = t + p
-                            - totals.initial_energy
-                            - totals.drive_work
-                            - totals.external_work
-                            - totals.damper_work
-                            + totals.numerical_dissipation;
-                        [
-                            t,
-                            p,
-                            t + p,
-                            totals.drive_work,
-                            totals.external_work,
-                            totals.damper_work,
-                            totals.numerical_dissipation,
-                            balance,
-                        ]
-                    });
-                    e[*k]
+                    energy.get_or_insert_with(|| energy_channels(sys, state, totals))[*k]
                 }
             };
             out.push(v);
         }
     }
+}
+
+/// Component `k` of a node's or coordinate's channel: position, position relative to
+/// another node's triad (components in it, then distances from its axes), displacement,
+/// rotation (vector from the initial triad, then the triad's entries), velocity (linear, then
+/// angular, inertial), coordinate value and rate.
+fn node_channel(src: &Source, k: usize, sys: &System, state: &State) -> f64 {
+    match src {
+        Source::Position(a) => state.nodes[*a].x.0[k],
+        Source::Relative(a, b) => {
+            let (n, r) = (&state.nodes[*a], &state.nodes[*b]);
+            let d = r.r.tmul_v(&(n.x - r.x));
+            if k < 3 {
+                d.0[k]
+            } else {
+                (d.norm_sq() - d.0[k - 3].powi(2)).max(0.0).sqrt()
+            }
+        }
+        Source::Displacement(a) => state.nodes[*a].x.0[k] - sys.initial.nodes[*a].x.0[k],
+        Source::Rotation(a) => {
+            let r = &state.nodes[*a].r;
+            if k < 3 {
+                log_map(&r.mul_m(&sys.initial.nodes[*a].r.transpose())).0[k]
+            } else {
+                r.0[(k - 3) / 3][(k - 3) % 3]
+            }
+        }
+        Source::Velocity(a) => {
+            let n = &state.nodes[*a];
+            if k < 3 {
+                n.v.0[k]
+            } else {
+                n.omega().0[k - 3]
+            }
+        }
+        Source::Coordinate(c) => {
+            if k == 0 {
+                state.coords[*c]
+            } else {
+                state.coord_rates[*c]
+            }
+        }
+        _ => unreachable!("not a node or coordinate channel"),
+    }
+}
+
+/// The energy sensor's channels: kinetic, potential, total, the drives', external loads' and
+/// dampers' work, numerical dissipation, and the balance of them all against the initial
+/// energy (J).
+fn energy_channels(sys: &System, state: &State, totals: &Totals) -> [f64; 8] {
+    let t = sys.kinetic_energy(state);
+    let p = sys.potential_energy(state);
+    let balance = t + p
+        - totals.initial_energy
+        - totals.drive_work
+        - totals.external_work
+        - totals.damper_work
+        + totals.numerical_dissipation;
+    [
+        t,
+        p,
+        t + p,
+        totals.drive_work,
+        totals.external_work,
+        totals.damper_work,
+        totals.numerical_dissipation,
+        balance,
+    ]
 }
 
 /// Component `k` of a beam station's channels (forces/moments, strains/curvatures, position)

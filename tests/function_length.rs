@@ -16,7 +16,6 @@ const KNOWN: &[(&str, &str, usize)] = &[
     ("src/beam/tangent.rs", "closed_point_derivatives", 88),
     ("src/model/validate.rs", "validate", 593),
     ("src/sensors.rs", "new", 227),
-    ("src/sensors.rs", "sample", 125),
     ("src/system/beam_mesh.rs", "mesh", 139),
     ("src/system/mod.rs", "compile_with", 692),
 ];
