@@ -13,7 +13,7 @@
 //! result like any kernel's.
 
 use super::element::{
-    mat6_mul, BeamElement, O_GROUPS, P_FROM, P_GROUPS, Q_GROUPS, U_FROM, U_GROUPS,
+    mat6_mul, BeamElement, PointStep, O_GROUPS, P_FROM, P_GROUPS, Q_GROUPS, U_FROM, U_GROUPS,
 };
 use super::shape::MAX_NODES;
 use crate::elements::{v3, StepCtx, MAX_LOCAL};
@@ -243,6 +243,42 @@ fn h_times_gradient(rho: &V3<f64>, z: &V3<f64>) -> B3 {
 /// (`e*`, `κ`) of the strain state ε_j, through which the velocity inputs act.
 const CLOSED_DIRS: usize = 5;
 
+/// The strains' derivatives at a Gauss point, `∂ε_f` and `∂ε_j` as [strain half][direction]
+/// (directions: the point's position and rotation inputs, its curvature input, and under ED
+/// the strain jump's offsets), and the strains at j (under EP those at i).
+fn strain_derivatives<const ND: usize>(
+    el: &BeamElement,
+    ctx: &StepCtx,
+    ps: &PointStep<f64>,
+    p: &[V3<f64>; P_GROUPS],
+    hs: &B3,
+) -> ([[B3; ND]; 2], [[B3; ND]; 2], [f64; 6]) {
+    let (rho, rho_p) = (&p[1], &p[2]);
+    let (rf_t, rm_t) = (ps.rg_f.transpose(), ps.rm.transpose());
+    let mut d_f = [[B3::zero(); ND]; 2];
+    d_f[0][0] = rf_t;
+    d_f[0][1] = rf_t.mul_m(&ps.xp_f.tilde()).mul_m(hs);
+    d_f[1][1] = rf_t
+        .mul_m(&ps.hm.mul_v(rho_p).tilde())
+        .mul_m(hs)
+        .scale_f(0.5)
+        + rm_t.mul_m(&h_times_gradient(rho, rho_p));
+    d_f[1][2] = rm_t.mul_m(&ps.hm);
+    let mut d_j = [[B3::zero(); ND]; 2];
+    let eps_j = if ctx.ed() {
+        let h6 = ctx.h / 6.0;
+        let z_e = p[6] + ps.xp_f.cross(&p[7]);
+        d_j[0][0] = rf_t.mul_m(&p[7].tilde()).scale_f(h6);
+        d_j[0][1] = rf_t.mul_m(&z_e.tilde()).mul_m(hs).scale_f(-h6);
+        d_j[1][1] = rf_t.mul_m(&p[8].tilde()).mul_m(hs).scale_f(-h6);
+        (d_j[0][3], d_j[1][4]) = (B3::identity(), B3::identity());
+        el.strain_jump_state(ctx, ps, p)
+    } else {
+        ps.eps_i
+    };
+    (d_f, d_j, eps_j)
+}
+
 /// A step's point outputs (see [`BeamElement::point_outputs`]) differentiated by hand. With
 /// `a = H_s(ρ) δρ` the spatial variation of `R_f = cay(ρ) R_i` (`δR_f = ã R_f`, `H_s` =
 /// [`rodrigues_h`]), `v = Hρ′` and `z_e = v′_f + x′_f × ω_f`:
@@ -273,29 +309,7 @@ fn closed_point_derivatives<const ND: usize>(
     let ps = el.point_kinematics(ctx, g, &p[0], rho, rho_p);
     let o = el.point_outputs_at(ctx, g, &ps, p, &[0.0; 6]);
     let hs = rodrigues_h(rho);
-    let (rf_t, rm_t) = (ps.rg_f.transpose(), ps.rm.transpose());
-    // ∂ε_f and ∂ε_j as [strain half][direction].
-    let mut d_f = [[B3::zero(); ND]; 2];
-    d_f[0][0] = rf_t;
-    d_f[0][1] = rf_t.mul_m(&ps.xp_f.tilde()).mul_m(&hs);
-    d_f[1][1] = rf_t
-        .mul_m(&ps.hm.mul_v(rho_p).tilde())
-        .mul_m(&hs)
-        .scale_f(0.5)
-        + rm_t.mul_m(&h_times_gradient(rho, rho_p));
-    d_f[1][2] = rm_t.mul_m(&ps.hm);
-    let mut d_j = [[B3::zero(); ND]; 2];
-    let eps_j = if ed {
-        let h6 = ctx.h / 6.0;
-        let z_e = p[6] + ps.xp_f.cross(&p[7]);
-        d_j[0][0] = rf_t.mul_m(&p[7].tilde()).scale_f(h6);
-        d_j[0][1] = rf_t.mul_m(&z_e.tilde()).mul_m(&hs).scale_f(-h6);
-        d_j[1][1] = rf_t.mul_m(&p[8].tilde()).mul_m(&hs).scale_f(-h6);
-        (d_j[0][3], d_j[1][4]) = (B3::identity(), B3::identity());
-        el.strain_jump_state(ctx, &ps, p)
-    } else {
-        ps.eps_i
-    };
+    let (d_f, d_j, eps_j) = strain_derivatives::<ND>(el, ctx, &ps, p, &hs);
     // w C by 3×3 blocks; `wc(half, ∂ε)` = the sectional forces' half of w C ∂ε.
     let block = |i: usize, j: usize| {
         M3(std::array::from_fn(|r| {
