@@ -15,7 +15,6 @@ const KNOWN: &[(&str, &str, usize)] = &[
     ("src/beam/geometry.rs", "new", 117),
     ("src/model/validate.rs", "validate", 593),
     ("src/sensors.rs", "new", 227),
-    ("src/system/beam_mesh.rs", "mesh", 139),
     ("src/system/mod.rs", "compile_with", 692),
 ];
 

@@ -88,47 +88,132 @@ pub fn mesh(
     velocity_given: &mut Vec<bool>,
     lumped: &mut Lumped,
 ) -> BeamMesh {
-    let find =
-        |names: &Vec<String>, n: &str| names.iter().position(|x| x == n).expect("validated node");
+    let (start, end) = end_points(b, names, nodes);
+    let line = ReferenceLine::new(b, start.0, end.0).expect("validated geometry");
+    let length = line.length();
+    let spans = line.element_spans(b.elements);
+    let along = Along::new(b, &spans);
+    let ids = place_nodes(
+        b,
+        &line,
+        &along,
+        start,
+        names,
+        nodes,
+        velocity_given,
+        lumped,
+    );
+    let mut out = Vec::with_capacity(spans.len());
+    for (e, &(seg, sa, sb)) in spans.iter().enumerate() {
+        let el_nodes: Vec<usize> = (0..along.nn).map(|a| ids[e * b.order + a]).collect();
+        for (a, &id) in el_nodes.iter().enumerate() {
+            let s = along.node_s(e, a);
+            let section = section_at(b, length, s);
+            lump(
+                lumped,
+                id,
+                &nodes[id],
+                &line.section_triad(seg, s),
+                &section,
+                along.lumping[a] * (sb - sa),
+            );
+        }
+        let (points, history) = gauss_points(b, &line, length, (seg, sa, sb), &el_nodes, nodes);
+        out.push(MeshedElement {
+            name: format!("{}[{e}]", b.name),
+            nodes: el_nodes,
+            points,
+            history,
+        });
+    }
+    BeamMesh {
+        elements: out,
+        nodes: ids,
+        load_weights: load_weights(b, &spans),
+        spans: spans.iter().map(|&(_, a, b)| (a, b)).collect(),
+        length,
+    }
+}
+
+/// A beam's start and end points: given, an existing node's, or (the end) along its arc.
+fn end_points(b: &Beam, names: &[String], nodes: &[NodeState]) -> (V3<f64>, V3<f64>) {
+    let find = |n: &str| names.iter().position(|x| x == n).expect("validated node");
     let start = match (&b.start, &b.start_node) {
         (Some(p), _) => V3(*p),
-        (None, Some(n)) => nodes[find(names, n)].x,
+        (None, Some(n)) => nodes[find(n)].x,
         _ => unreachable!("validated"),
     };
     let end = match (&b.end, &b.end_node, &b.arc) {
         (_, _, Some(arc)) => V3(crate::beam::geometry::arc_end(start.0, arc)),
         (Some(p), _, _) => V3(*p),
-        (None, Some(n), _) => nodes[find(names, n)].x,
+        (None, Some(n), _) => nodes[find(n)].x,
         _ => unreachable!("validated"),
     };
-    let line = ReferenceLine::new(b, start.0, end.0).expect("validated geometry");
-    let length = line.length();
-    let spans = line.element_spans(b.elements);
-    let n_el = spans.len();
-    let nn = b.order + 1;
-    let zs = node_coordinates(nn);
-    // Arc length of local node `a` of element `e`, and its segment.
-    let node_s = |e: usize, a: usize| {
-        let (_, sa, sb) = spans[e];
-        sa + 0.5 * (zs[a] + 1.0) * (sb - sa)
-    };
-    // Global node indices along the beam.
+    (start, end)
+}
+
+/// Where the nodes of a beam's elements sit along it.
+struct Along<'a> {
+    spans: &'a [(usize, f64, f64)],
+    /// Nodes per element and their parent coordinates.
+    nn: usize,
+    zs: &'static [f64],
+    /// Each local node's share of the element's length in the lumped inertia.
+    lumping: &'static [f64],
+}
+
+impl<'a> Along<'a> {
+    fn new(b: &Beam, spans: &'a [(usize, f64, f64)]) -> Self {
+        let nn = b.order + 1;
+        Along {
+            spans,
+            nn,
+            zs: node_coordinates(nn),
+            lumping: lumping_weights(nn),
+        }
+    }
+
+    /// Arc length of local node `a` of element `e`.
+    fn node_s(&self, e: usize, a: usize) -> f64 {
+        let (_, sa, sb) = self.spans[e];
+        sa + 0.5 * (self.zs[a] + 1.0) * (sb - sa)
+    }
+}
+
+/// The beam's global node indices along it, creating its nodes (`<beam>.k`) with their triads
+/// and initial velocities (rigid motion from the beam's `velocity` and `angular_velocity`).
+#[allow(clippy::too_many_arguments)]
+fn place_nodes(
+    b: &Beam,
+    line: &ReferenceLine,
+    along: &Along,
+    start: V3<f64>,
+    names: &mut Vec<String>,
+    nodes: &mut Vec<NodeState>,
+    velocity_given: &mut Vec<bool>,
+    lumped: &mut Lumped,
+) -> Vec<usize> {
+    let n_el = along.spans.len();
     let count = b.node_count();
     let mut ids = Vec::with_capacity(count);
     for k in 0..count {
         let e = (k / b.order).min(n_el - 1);
-        let local = k - e * b.order;
-        let s = node_s(e, local);
-        let r = line.section_triad(spans[e].0, s);
+        let s = along.node_s(e, k - e * b.order);
+        let seg = along.spans[e].0;
         let name = b.node_name(k);
         // Only the end nodes can be existing nodes (`start_node`/`end_node`); the others are
         // new `<beam>.k` (names cannot contain `.`), so no search: meshing stays linear.
         let shared = (k == 0 && b.start_node.is_some()) || (k + 1 == count && b.end_node.is_some());
         if shared {
-            ids.push(find(names, &name));
+            ids.push(
+                names
+                    .iter()
+                    .position(|x| *x == name)
+                    .expect("validated node"),
+            );
             continue;
         }
-        let x = line.point(spans[e].0, s);
+        let (x, r) = (line.point(seg, s), line.section_triad(seg, s));
         let omega = V3(b.angular_velocity.unwrap_or_default());
         let v = V3(b.velocity.unwrap_or_default()) + omega.cross(&(x - start));
         names.push(name);
@@ -142,81 +227,81 @@ pub fn mesh(
         lumped.push_node();
         ids.push(nodes.len() - 1);
     }
-    // Consistent load weights ∫ h_α ds (full Gauss integration, exact).
-    let mut load_weights = vec![0.0; count];
+    ids
+}
+
+/// Consistent load weights `∫ h_α ds` per beam node (full Gauss integration, exact).
+fn load_weights(b: &Beam, spans: &[(usize, f64, f64)]) -> Vec<f64> {
+    let nn = b.order + 1;
+    let mut out = vec![0.0; b.node_count()];
     let (xl, wl) = gauss(nn);
     for (e, &(_, sa, sb)) in spans.iter().enumerate() {
         for (&xi, &wq) in xl.iter().zip(wl) {
             let (h, _) = lagrange(nn, xi);
             for a in 0..nn {
-                load_weights[e * b.order + a] += h[a] * wq * 0.5 * (sb - sa);
+                out[e * b.order + a] += h[a] * wq * 0.5 * (sb - sa);
             }
         }
     }
-    let weights = lumping_weights(nn);
+    out
+}
+
+/// Adds a length `w` of `section` (at section triad `rs`) to node `id`'s lumped inertia,
+/// expressed in the node's own triad (a shared node's may differ).
+fn lump(lumped: &mut Lumped, id: usize, node: &NodeState, rs: &M3<f64>, section: &Section, w: f64) {
+    let m = w * section.mass_per_length();
+    let q = node.r.transpose().mul_m(rs);
+    lumped.mass[id] += m;
+    lumped.first_moment[id] += q.mul_v(&section.cm_offset()).scale_f(m);
+    lumped.inertia[id] = lumped.inertia[id]
+        + q.mul_m(&section.inertia_per_length())
+            .mul_m(&q.transpose())
+            .scale_f(w);
+}
+
+/// An element's Gauss points (reduced integration) with their sections, reference strains
+/// and initial history.
+fn gauss_points(
+    b: &Beam,
+    line: &ReferenceLine,
+    length: f64,
+    (seg, sa, sb): (usize, f64, f64),
+    el_nodes: &[usize],
+    nodes: &[NodeState],
+) -> (Vec<GaussPoint>, Vec<f64>) {
+    let (nn, le) = (b.order + 1, sb - sa);
     let (xg, wg) = gauss(reduced_points(nn));
-    let mut out = Vec::with_capacity(n_el);
-    for (e, &(seg, sa, sb)) in spans.iter().enumerate() {
-        let le = sb - sa;
-        let el_nodes: Vec<usize> = (0..nn).map(|a| ids[e * b.order + a]).collect();
-        for (a, &id) in el_nodes.iter().enumerate() {
-            let s = node_s(e, a);
-            let w = weights[a] * le;
-            let section = section_at(b, length, s);
-            let m = w * section.mass_per_length();
-            // Section properties expressed in the node's own triad (a shared node may differ).
-            let q = nodes[id].r.transpose().mul_m(&line.section_triad(seg, s));
-            lumped.mass[id] += m;
-            lumped.first_moment[id] += q.mul_v(&section.cm_offset()).scale_f(m);
-            lumped.inertia[id] = lumped.inertia[id]
-                + q.mul_m(&section.inertia_per_length())
-                    .mul_m(&q.transpose())
-                    .scale_f(w);
+    let mut points = Vec::new();
+    let mut history = Vec::new();
+    for (&xi, &wq) in xg.iter().zip(wg) {
+        let (h, dxi) = lagrange(nn, xi);
+        let jac = 0.5 * le;
+        let mut dh = [0.0; MAX_NODES];
+        for a in 0..nn {
+            dh[a] = dxi[a] / jac;
         }
-        let mut points = Vec::new();
-        let mut history = Vec::new();
-        for (&xi, &wq) in xg.iter().zip(wg) {
-            let (h, dxi) = lagrange(nn, xi);
-            let jac = 0.5 * le;
-            let mut dh = [0.0; MAX_NODES];
-            for a in 0..nn {
-                dh[a] = dxi[a] / jac;
-            }
-            let s = sa + 0.5 * (xi + 1.0) * le;
-            let rg = line.section_triad(seg, s);
-            // The interpolated reference tangent sets e₀ so that the reference configuration
-            // is strain free (it differs from t on curved lines by the interpolation error).
-            let mut xp = V3::zero();
-            for a in 0..nn {
-                xp += nodes[el_nodes[a]].x.scale_f(dh[a]);
-            }
-            let e0 = rg.tmul_v(&xp) - V3([1.0, 0.0, 0.0]);
-            let k0 = line.curvature(seg, s);
-            let mut hist = [0.0; HISTORY_PER_POINT];
-            write_history(&mut hist, &rg, &k0);
-            history.extend_from_slice(&hist);
-            points.push(GaussPoint {
-                xi,
-                weight: wq * jac,
-                h,
-                dh,
-                stiffness: section_at(b, length, s).stiffness,
-                e0,
-                k0,
-            });
+        let s = sa + 0.5 * (xi + 1.0) * le;
+        let rg = line.section_triad(seg, s);
+        // The interpolated reference tangent sets e₀ so that the reference configuration
+        // is strain free (it differs from t on curved lines by the interpolation error).
+        let mut xp = V3::zero();
+        for a in 0..nn {
+            xp += nodes[el_nodes[a]].x.scale_f(dh[a]);
         }
-        out.push(MeshedElement {
-            name: format!("{}[{e}]", b.name),
-            nodes: el_nodes,
-            points,
-            history,
+        let e0 = rg.tmul_v(&xp) - V3([1.0, 0.0, 0.0]);
+        let k0 = line.curvature(seg, s);
+        let mut hist = [0.0; HISTORY_PER_POINT];
+        write_history(&mut hist, &rg, &k0);
+        history.extend_from_slice(&hist);
+        points.push(GaussPoint {
+            xi,
+            weight: wq * jac,
+            h,
+            dh,
+            stiffness: section_at(b, length, s).stiffness,
+            e0,
+            k0,
         });
     }
-    BeamMesh {
-        elements: out,
-        nodes: ids,
-        load_weights,
-        spans: spans.iter().map(|&(_, a, b)| (a, b)).collect(),
-        length,
-    }
+    (points, history)
 }
