@@ -74,111 +74,16 @@ impl ReferenceLine {
     /// The line of beam `b` from `start` to `end` (end points already resolved). Errors say
     /// what is wrong with the geometry, for the validator to attach to the beam.
     pub fn new(b: &Beam, start: Vec3, end: Vec3) -> Result<ReferenceLine, String> {
-        let (p_start, p_end) = (v(&start), v(&end));
-        let mut segments = Vec::new();
-        let frame_from = |t: V3<f64>, e2_hint: Option<V3<f64>>| -> Result<M3<f64>, String> {
-            let trial = e2_hint.unwrap_or(if t.0[0].abs() < 0.9 {
-                V3([1.0, 0.0, 0.0])
-            } else {
-                V3([0.0, 1.0, 0.0])
-            });
-            let e2 = trial - t.scale_f(trial.dot(&t));
-            if e2.norm() < 1e-8 * trial.norm().max(1e-300) {
-                return Err(
-                    "e2 is parallel to the beam axis at the start; give an e2 normal to it".into(),
-                );
-            }
-            let e2 = e2.scale_f(1.0 / e2.norm());
-            Ok(M3::from_cols(t, e2, t.cross(&e2)))
-        };
         let user_e2 = b.e2.map(V3);
-        if let Some(arc) = &b.arc {
-            let mut axis = v(&arc.axis);
-            let an = axis.norm();
-            if !(an > 0.0) || !arc.angle.is_finite() || arc.angle == 0.0 {
-                return Err(
-                    "arc: axis must be nonzero and angle a nonzero number of radians".into(),
-                );
+        let segments = match &b.arc {
+            Some(arc) => vec![arc_segment(arc, start, end, user_e2)?],
+            None => {
+                let mut pts = vec![v(&start)];
+                pts.extend(b.via.iter().map(v));
+                pts.push(v(&end));
+                polyline_segments(&pts, user_e2)?
             }
-            if arc.angle.abs() > 2.0 * std::f64::consts::PI * (1.0 + 1e-12) {
-                return Err(format!(
-                    "arc: |angle| must not exceed 2π (got {})",
-                    arc.angle
-                ));
-            }
-            axis = axis.scale_f(arc.angle.signum() / an);
-            let center = v(&arc.center);
-            let r0 = p_start - center;
-            let radius = r0.norm();
-            if radius == 0.0 {
-                return Err("arc: the start point is the centre".into());
-            }
-            if r0.dot(&axis).abs() > 1e-9 * radius {
-                return Err(format!(
-                    "arc: the start point is not in the plane through the centre normal to the axis (out of plane by {:.3e} m)",
-                    r0.dot(&axis).abs()
-                ));
-            }
-            let t = axis.cross(&r0).scale_f(1.0 / radius);
-            // By default axis 3 is the arc's axis: in-plane bending is κ₃.
-            let frame0 = frame_from(t, user_e2.or(Some(axis.cross(&t))))?;
-            segments.push(Segment {
-                s0: 0.0,
-                len: radius * arc.angle.abs(),
-                shape: Shape::Arc {
-                    center,
-                    axis,
-                    radius,
-                    r0,
-                },
-                frame0,
-            });
-            let reach = v(&arc_end(start, arc));
-            if (reach - p_end).norm() > 1e-9 * radius.max(1.0) {
-                return Err(format!(
-                    "arc: ends at {:?}, not at the given end {:?}; leave out `end` or make it match",
-                    reach.0, end
-                ));
-            }
-        } else {
-            let mut pts = vec![p_start];
-            pts.extend(b.via.iter().map(v));
-            pts.push(p_end);
-            let mut frame: Option<M3<f64>> = None;
-            let mut s0 = 0.0;
-            for (k, w) in pts.windows(2).enumerate() {
-                let d = w[1] - w[0];
-                let len = d.norm();
-                if len == 0.0 {
-                    return Err(format!(
-                        "points {k} and {} of the beam's line coincide",
-                        k + 1
-                    ));
-                }
-                let t = d.scale_f(1.0 / len);
-                let f = match frame {
-                    None => frame_from(t, user_e2)?,
-                    Some(prev) => {
-                        let t_prev = prev.col(0);
-                        if t_prev.dot(&t) < -1.0 + 1e-9 {
-                            return Err(format!(
-                                "the line folds back on itself at via point {}",
-                                k - 1
-                            ));
-                        }
-                        align(&t_prev, &t).mul_m(&prev)
-                    }
-                };
-                segments.push(Segment {
-                    s0,
-                    len,
-                    shape: Shape::Straight { p0: w[0] },
-                    frame0: f,
-                });
-                frame = Some(f);
-                s0 += len;
-            }
-        }
+        };
         let length = segments.iter().map(|s| s.len).sum::<f64>();
         let twist = match &b.twist {
             Some(t) => Twist::Table(t.eta.iter().map(|e| e * length).collect(), t.angle.clone()),
@@ -307,6 +212,117 @@ impl ReferenceLine {
             .rposition(|seg| s >= seg.s0 - 1e-12 * self.length)
             .unwrap_or(0)
     }
+}
+
+/// The section frame at a line's start with tangent `t`: e₂ from the hint (or a default axis)
+/// made normal to `t`.
+fn start_frame(t: V3<f64>, e2_hint: Option<V3<f64>>) -> Result<M3<f64>, String> {
+    let trial = e2_hint.unwrap_or(if t.0[0].abs() < 0.9 {
+        V3([1.0, 0.0, 0.0])
+    } else {
+        V3([0.0, 1.0, 0.0])
+    });
+    let e2 = trial - t.scale_f(trial.dot(&t));
+    if e2.norm() < 1e-8 * trial.norm().max(1e-300) {
+        return Err("e2 is parallel to the beam axis at the start; give an e2 normal to it".into());
+    }
+    let e2 = e2.scale_f(1.0 / e2.norm());
+    Ok(M3::from_cols(t, e2, t.cross(&e2)))
+}
+
+/// A circular arc from `start` about `arc.axis` through `arc.angle`, which must end at `end`.
+fn arc_segment(
+    arc: &ArcSpec,
+    start: Vec3,
+    end: Vec3,
+    user_e2: Option<V3<f64>>,
+) -> Result<Segment, String> {
+    let axis = v(&arc.axis);
+    let an = axis.norm();
+    if !(an > 0.0) || !arc.angle.is_finite() || arc.angle == 0.0 {
+        return Err("arc: axis must be nonzero and angle a nonzero number of radians".into());
+    }
+    if arc.angle.abs() > 2.0 * std::f64::consts::PI * (1.0 + 1e-12) {
+        return Err(format!(
+            "arc: |angle| must not exceed 2π (got {})",
+            arc.angle
+        ));
+    }
+    let axis = axis.scale_f(arc.angle.signum() / an);
+    let center = v(&arc.center);
+    let r0 = v(&start) - center;
+    let radius = r0.norm();
+    if radius == 0.0 {
+        return Err("arc: the start point is the centre".into());
+    }
+    if r0.dot(&axis).abs() > 1e-9 * radius {
+        return Err(format!(
+            "arc: the start point is not in the plane through the centre normal to the axis (out of plane by {:.3e} m)",
+            r0.dot(&axis).abs()
+        ));
+    }
+    let t = axis.cross(&r0).scale_f(1.0 / radius);
+    // By default axis 3 is the arc's axis: in-plane bending is κ₃.
+    let frame0 = start_frame(t, user_e2.or(Some(axis.cross(&t))))?;
+    let reach = v(&arc_end(start, arc));
+    if (reach - v(&end)).norm() > 1e-9 * radius.max(1.0) {
+        return Err(format!(
+            "arc: ends at {:?}, not at the given end {:?}; leave out `end` or make it match",
+            reach.0, end
+        ));
+    }
+    Ok(Segment {
+        s0: 0.0,
+        len: radius * arc.angle.abs(),
+        shape: Shape::Arc {
+            center,
+            axis,
+            radius,
+            r0,
+        },
+        frame0,
+    })
+}
+
+/// Straight segments through `pts`, each segment's frame the previous one turned onto its
+/// direction (no twist about the line).
+fn polyline_segments(pts: &[V3<f64>], user_e2: Option<V3<f64>>) -> Result<Vec<Segment>, String> {
+    let mut segments = Vec::new();
+    let mut frame: Option<M3<f64>> = None;
+    let mut s0 = 0.0;
+    for (k, w) in pts.windows(2).enumerate() {
+        let d = w[1] - w[0];
+        let len = d.norm();
+        if len == 0.0 {
+            return Err(format!(
+                "points {k} and {} of the beam's line coincide",
+                k + 1
+            ));
+        }
+        let t = d.scale_f(1.0 / len);
+        let f = match frame {
+            None => start_frame(t, user_e2)?,
+            Some(prev) => {
+                let t_prev = prev.col(0);
+                if t_prev.dot(&t) < -1.0 + 1e-9 {
+                    return Err(format!(
+                        "the line folds back on itself at via point {}",
+                        k - 1
+                    ));
+                }
+                align(&t_prev, &t).mul_m(&prev)
+            }
+        };
+        segments.push(Segment {
+            s0,
+            len,
+            shape: Shape::Straight { p0: w[0] },
+            frame0: f,
+        });
+        frame = Some(f);
+        s0 += len;
+    }
+    Ok(segments)
 }
 
 #[cfg(test)]
