@@ -239,7 +239,7 @@ fn arc_segment(
 ) -> Result<Segment, String> {
     let axis = v(&arc.axis);
     let an = axis.norm();
-    if !(an > 0.0) || !arc.angle.is_finite() || arc.angle == 0.0 {
+    if an.is_nan() || an <= 0.0 || !arc.angle.is_finite() || arc.angle == 0.0 {
         return Err("arc: axis must be nonzero and angle a nonzero number of radians".into());
     }
     if arc.angle.abs() > 2.0 * std::f64::consts::PI * (1.0 + 1e-12) {
