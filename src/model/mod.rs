@@ -300,20 +300,6 @@ pub struct SpringTable {
     pub force: Vec<f64>,
 }
 
-impl SpringDamper {
-    /// The elastic law this spring describes.
-    pub fn law(&self) -> crate::elements::coordinate::SpringLaw {
-        use crate::elements::coordinate::SpringLaw;
-        match &self.table {
-            Some(t) => SpringLaw::table(t.at.clone(), t.force.clone()),
-            None => SpringLaw::Linear {
-                stiffness: self.stiffness,
-                rest: self.rest,
-            },
-        }
-    }
-}
-
 /// Joints connect two nodes (`node1` is body k of the paper, `node2` body l); either may be
 /// `ground`. Positions and axes are given in the initial configuration, in the inertial frame
 /// or (with `frame: node1` / `node2`) in that node's triad.

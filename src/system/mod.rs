@@ -10,7 +10,7 @@ mod time_functions;
 use crate::beam::element::BeamElement;
 use crate::beam::line_load::FollowerLineLoad;
 use crate::beam::path::{ArcMap, BeamPath};
-use crate::elements::coordinate::{CoordinateDrive, CoordinateSpring};
+use crate::elements::coordinate::{CoordinateDrive, CoordinateSpring, SpringLaw};
 use crate::elements::inertia::{NodeInertia, SteadySpin};
 use crate::elements::loads::{LoadKind, PointLoad};
 use crate::joints::sliding::{ContactLaw, SlidingJoint, SlidingKind};
@@ -94,6 +94,17 @@ pub struct JointCoordinate {
 }
 
 /// Constraint rows of a joint's law (its drives add one each).
+/// The elastic law a joint coordinate's spring describes.
+fn spring_law(s: &model::SpringDamper) -> SpringLaw {
+    match &s.table {
+        Some(t) => SpringLaw::table(t.at.clone(), t.force.clone()),
+        None => SpringLaw::Linear {
+            stiffness: s.stiffness,
+            rest: s.rest,
+        },
+    }
+}
+
 fn law_rows(j: &model::Joint) -> usize {
     match j {
         model::Joint::Spherical(_) => 3,
@@ -604,7 +615,7 @@ impl System {
                     drive_row += 1;
                 }
                 let spring = co.spring.map(|s| {
-                    springs.push(CoordinateSpring::new(c, s.law(), s.damping, &layout));
+                    springs.push(CoordinateSpring::new(c, spring_law(s), s.damping, &layout));
                     springs.len() - 1
                 });
                 info_coords.push(JointCoordinate {
