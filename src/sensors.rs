@@ -160,208 +160,12 @@ impl Channels {
             sources: vec![],
             step_channels: vec![],
         };
-        let add =
-            |c: &mut Channels, sensor: &str, comps: &[&str], unit: &[&'static str], src: Source| {
-                for (k, comp) in comps.iter().enumerate() {
-                    let step_quantity = matches!(src, Source::Reaction(_))
-                        || (matches!(src, Source::Drive(_)) && k == 0)
-                        || (matches!(src, Source::SlidingDrive(..)) && k < 2);
-                    if step_quantity {
-                        c.step_channels.push(c.names.len());
-                    }
-                    c.names.push(format!("{sensor}.{comp}"));
-                    c.units.push(unit[k.min(unit.len() - 1)]);
-                    c.sources.push((src.clone(), k));
-                }
-            };
-        let node = |n: &str| sys.node_index(n).expect("validated");
         let mut errors = Vec::new();
         for (i, s) in model.sensors.iter().enumerate() {
-            let name = s.name();
             let first = c.names.len();
-            match s {
-                Sensor::NodePosition { node: n, .. } => add(
-                    &mut c,
-                    name,
-                    &["x", "y", "z"],
-                    &["m"],
-                    Source::Position(node(n)),
-                ),
-                Sensor::RelativePosition {
-                    node: n, reference, ..
-                } => add(
-                    &mut c,
-                    name,
-                    &["x1", "x2", "x3", "r1", "r2", "r3"],
-                    &["m"],
-                    Source::Relative(node(n), node(reference)),
-                ),
-                Sensor::NodeDisplacement { node: n, .. } => add(
-                    &mut c,
-                    name,
-                    &["x", "y", "z"],
-                    &["m"],
-                    Source::Displacement(node(n)),
-                ),
-                Sensor::NodeRotation { node: n, .. } => add(
-                    &mut c,
-                    name,
-                    &[
-                        "x", "y", "z", "R11", "R12", "R13", "R21", "R22", "R23", "R31", "R32",
-                        "R33",
-                    ],
-                    &["rad", "rad", "rad", "1"],
-                    Source::Rotation(node(n)),
-                ),
-                Sensor::NodeVelocity { node: n, .. } => add(
-                    &mut c,
-                    name,
-                    &["vx", "vy", "vz", "wx", "wy", "wz"],
-                    &["m/s", "m/s", "m/s", "rad/s"],
-                    Source::Velocity(node(n)),
-                ),
-                Sensor::JointCoordinate { joint, .. }
-                    if sys.joints[sys.joint(joint).expect("validated").kernel]
-                        .as_sliding()
-                        .is_some() =>
-                {
-                    add(
-                        &mut c,
-                        name,
-                        &["eta", "eta_rate", "s", "x", "y", "z"],
-                        &["1", "1/s", "m", "m", "m", "m"],
-                        Source::Contact(sys.joint(joint).expect("validated").kernel),
-                    )
-                }
-                Sensor::JointCoordinate { joint, .. } => {
-                    for co in &sys.joint(joint).expect("validated").coords {
-                        let names: [String; 2] = [co.name.into(), format!("{}_rate", co.name)];
-                        let units = if co.name.starts_with("phi") {
-                            ["rad", "rad/s"]
-                        } else {
-                            ["m", "m/s"]
-                        };
-                        add(
-                            &mut c,
-                            name,
-                            &[names[0].as_str(), names[1].as_str()],
-                            &units,
-                            Source::Coordinate(co.coord),
-                        )
-                    }
-                }
-                Sensor::JointReaction { joint, .. } => {
-                    let k = sys.joint(joint).expect("validated").kernel;
-                    add(
-                        &mut c,
-                        name,
-                        &[
-                            "Fx", "Fy", "Fz", "Mx", "My", "Mz", "F1", "F2", "F3", "M1", "M2", "M3",
-                        ],
-                        &["N", "N", "N", "N*m", "N*m", "N*m", "N", "N", "N", "N*m"],
-                        Source::Reaction(k),
-                    );
-                    c.names.push(format!("{name}.violation"));
-                    c.units.push("m|1");
-                    c.sources.push((Source::Violation(k), 0));
-                }
-                Sensor::DriveForce {
-                    joint, coordinate, ..
-                } => {
-                    let spec = model
-                        .joints
-                        .iter()
-                        .find(|j| j.name() == joint)
-                        .and_then(|j| {
-                            crate::model::driven_coordinate(j, coordinate.as_deref()).ok()
-                        })
-                        .expect("validated");
-                    let d = sys
-                        .joint(joint)
-                        .and_then(|j| j.coords.iter().find(|c| c.name == spec.name))
-                        .and_then(|c| c.drive)
-                        .expect("validated");
-                    let kernel = sys.joint(joint).expect("validated").kernel;
-                    if sys.joints[kernel].as_sliding().is_some() {
-                        add(
-                            &mut c,
-                            name,
-                            &["force", "force_eta", "work"],
-                            &["N", "N*m", "J"],
-                            Source::SlidingDrive(d, kernel),
-                        );
-                    } else {
-                        let (force, unit) = if spec.is_rotation() {
-                            ("torque", "N*m")
-                        } else {
-                            ("force", "N")
-                        };
-                        add(
-                            &mut c,
-                            name,
-                            &[force, "work"],
-                            &[unit, "J"],
-                            Source::Drive(d),
-                        )
-                    }
-                }
-                Sensor::Energy { .. } => add(&mut c, name, &ENERGY, &["J"], Source::Energy),
-                Sensor::BeamSection { beam, eta, s, .. } => {
-                    let info = sys
-                        .beam_info
-                        .iter()
-                        .find(|b| &b.name == beam)
-                        .expect("validated");
-                    let s = eta.map_or(s.unwrap_or(0.0), |eta| eta * info.length);
-                    let (e, xi) = info.locate(s);
-                    let b = model
-                        .beams
-                        .iter()
-                        .find(|b| &b.name == beam)
-                        .expect("validated");
-                    let (p0, p1) = b.end_points(model).expect("validated");
-                    let line = crate::beam::geometry::ReferenceLine::new(b, p0, p1)
-                        .expect("validated geometry");
-                    let r0 = line.section_triad(line.segment_at(s.min(info.length)), s);
-                    add(
-                        &mut c,
-                        name,
-                        &[
-                            "F1", "F2", "F3", "M1", "M2", "M3", "e1", "g2", "g3", "k1", "k2", "k3",
-                            "x", "y", "z", "phi1", "phi2", "phi3", "ux", "uy", "uz", "rx", "ry",
-                            "rz",
-                        ],
-                        &[
-                            "N", "N", "N", "N*m", "N*m", "N*m", "1", "1", "1", "1/m", "1/m", "1/m",
-                            "m", "m", "m", "rad", "rad", "rad", "m", "m", "m", "rad",
-                        ],
-                        Source::BeamSection(e, xi, r0),
-                    )
-                }
-                Sensor::BeamEnergy { beam, .. } => {
-                    let i = sys
-                        .beam_info
-                        .iter()
-                        .position(|b| &b.name == beam)
-                        .expect("validated");
-                    add(
-                        &mut c,
-                        name,
-                        &["kinetic", "strain"],
-                        &["J"],
-                        Source::BeamEnergy(i),
-                    )
-                }
-                Sensor::Momentum { .. } => add(
-                    &mut c,
-                    name,
-                    &["px", "py", "pz", "Hx", "Hy", "Hz"],
-                    &["N*s", "N*s", "N*s", "N*m*s"],
-                    Source::Momentum,
-                ),
-            }
+            c.add_sensor(s, model, sys);
             if let Some(comp) = s.component() {
-                if let Err(e) = c.keep_only(first, name, comp) {
+                if let Err(e) = c.keep_only(first, s.name(), comp) {
                     errors.push(ModelError::new(format!("sensors[{i}].component"), e));
                 }
             }
@@ -379,6 +183,203 @@ impl Channels {
             return Err(ModelErrors(errors));
         }
         Ok(c)
+    }
+
+    /// Channels `<sensor>.<comp>` of one source, component `k` of it for each `comps[k]`, in
+    /// `unit[k]` (the last unit repeats).
+    fn add(&mut self, sensor: &str, comps: &[&str], unit: &[&'static str], src: Source) {
+        for (k, comp) in comps.iter().enumerate() {
+            let step_quantity = matches!(src, Source::Reaction(_))
+                || (matches!(src, Source::Drive(_)) && k == 0)
+                || (matches!(src, Source::SlidingDrive(..)) && k < 2);
+            if step_quantity {
+                self.step_channels.push(self.names.len());
+            }
+            self.names.push(format!("{sensor}.{comp}"));
+            self.units.push(unit[k.min(unit.len() - 1)]);
+            self.sources.push((src.clone(), k));
+        }
+    }
+
+    /// The channels of sensor `s` (validated: its nodes, joints and beams exist).
+    fn add_sensor(&mut self, s: &Sensor, model: &Model, sys: &System) {
+        let name = s.name();
+        let node = |n: &str| sys.node_index(n).expect("validated");
+        match s {
+            Sensor::NodePosition { node: n, .. } => {
+                self.add(name, &["x", "y", "z"], &["m"], Source::Position(node(n)))
+            }
+            Sensor::RelativePosition {
+                node: n, reference, ..
+            } => self.add(
+                name,
+                &["x1", "x2", "x3", "r1", "r2", "r3"],
+                &["m"],
+                Source::Relative(node(n), node(reference)),
+            ),
+            Sensor::NodeDisplacement { node: n, .. } => self.add(
+                name,
+                &["x", "y", "z"],
+                &["m"],
+                Source::Displacement(node(n)),
+            ),
+            Sensor::NodeRotation { node: n, .. } => self.add(
+                name,
+                &[
+                    "x", "y", "z", "R11", "R12", "R13", "R21", "R22", "R23", "R31", "R32", "R33",
+                ],
+                &["rad", "rad", "rad", "1"],
+                Source::Rotation(node(n)),
+            ),
+            Sensor::NodeVelocity { node: n, .. } => self.add(
+                name,
+                &["vx", "vy", "vz", "wx", "wy", "wz"],
+                &["m/s", "m/s", "m/s", "rad/s"],
+                Source::Velocity(node(n)),
+            ),
+            Sensor::JointCoordinate { joint, .. } => self.add_joint_coordinates(name, joint, sys),
+            Sensor::JointReaction { joint, .. } => {
+                let k = sys.joint(joint).expect("validated").kernel;
+                self.add(
+                    name,
+                    &[
+                        "Fx", "Fy", "Fz", "Mx", "My", "Mz", "F1", "F2", "F3", "M1", "M2", "M3",
+                    ],
+                    &["N", "N", "N", "N*m", "N*m", "N*m", "N", "N", "N", "N*m"],
+                    Source::Reaction(k),
+                );
+                self.names.push(format!("{name}.violation"));
+                self.units.push("m|1");
+                self.sources.push((Source::Violation(k), 0));
+            }
+            Sensor::DriveForce {
+                joint, coordinate, ..
+            } => self.add_drive_force(name, joint, coordinate.as_deref(), model, sys),
+            Sensor::Energy { .. } => self.add(name, &ENERGY, &["J"], Source::Energy),
+            Sensor::BeamSection { beam, eta, s, .. } => {
+                self.add_beam_section(name, beam, *eta, *s, model, sys)
+            }
+            Sensor::BeamEnergy { beam, .. } => {
+                let i = sys.beam_info.iter().position(|b| &b.name == beam);
+                let src = Source::BeamEnergy(i.expect("validated"));
+                self.add(name, &["kinetic", "strain"], &["J"], src)
+            }
+            Sensor::Momentum { .. } => self.add(
+                name,
+                &["px", "py", "pz", "Hx", "Hy", "Hz"],
+                &["N*s", "N*s", "N*s", "N*m*s"],
+                Source::Momentum,
+            ),
+        }
+    }
+
+    /// A joint's coordinates and rates; a sliding joint's contact point (η, its rate, arc
+    /// length, position).
+    fn add_joint_coordinates(&mut self, name: &str, joint: &str, sys: &System) {
+        let j = sys.joint(joint).expect("validated");
+        if sys.joints[j.kernel].as_sliding().is_some() {
+            return self.add(
+                name,
+                &["eta", "eta_rate", "s", "x", "y", "z"],
+                &["1", "1/s", "m", "m", "m", "m"],
+                Source::Contact(j.kernel),
+            );
+        }
+        for co in &j.coords {
+            let rate = format!("{}_rate", co.name);
+            let units = if co.name.starts_with("phi") {
+                ["rad", "rad/s"]
+            } else {
+                ["m", "m/s"]
+            };
+            self.add(
+                name,
+                &[co.name, rate.as_str()],
+                &units,
+                Source::Coordinate(co.coord),
+            )
+        }
+    }
+
+    /// A drive's force (or torque) and work; a sliding drive's force along the beam, its
+    /// generalized force on η, and work.
+    fn add_drive_force(
+        &mut self,
+        name: &str,
+        joint: &str,
+        coordinate: Option<&str>,
+        model: &Model,
+        sys: &System,
+    ) {
+        let spec = model
+            .joints
+            .iter()
+            .find(|j| j.name() == joint)
+            .and_then(|j| crate::model::driven_coordinate(j, coordinate).ok())
+            .expect("validated");
+        let j = sys.joint(joint).expect("validated");
+        let d = j
+            .coords
+            .iter()
+            .find(|c| c.name == spec.name)
+            .and_then(|c| c.drive)
+            .expect("validated");
+        if sys.joints[j.kernel].as_sliding().is_some() {
+            let src = Source::SlidingDrive(d, j.kernel);
+            return self.add(
+                name,
+                &["force", "force_eta", "work"],
+                &["N", "N*m", "J"],
+                src,
+            );
+        }
+        let (force, unit) = if spec.is_rotation() {
+            ("torque", "N*m")
+        } else {
+            ("force", "N")
+        };
+        self.add(name, &[force, "work"], &[unit, "J"], Source::Drive(d))
+    }
+
+    /// A beam station's forces, strains, position and rotation, at `eta` (or arc length
+    /// `s`), with the section triad of the reference line there.
+    fn add_beam_section(
+        &mut self,
+        name: &str,
+        beam: &str,
+        eta: Option<f64>,
+        s: Option<f64>,
+        model: &Model,
+        sys: &System,
+    ) {
+        let info = sys
+            .beam_info
+            .iter()
+            .find(|b| b.name == beam)
+            .expect("validated");
+        let s = eta.map_or(s.unwrap_or(0.0), |eta| eta * info.length);
+        let (e, xi) = info.locate(s);
+        let b = model
+            .beams
+            .iter()
+            .find(|b| b.name == beam)
+            .expect("validated");
+        let (p0, p1) = b.end_points(model).expect("validated");
+        let line =
+            crate::beam::geometry::ReferenceLine::new(b, p0, p1).expect("validated geometry");
+        let r0 = line.section_triad(line.segment_at(s.min(info.length)), s);
+        self.add(
+            name,
+            &[
+                "F1", "F2", "F3", "M1", "M2", "M3", "e1", "g2", "g3", "k1", "k2", "k3", "x", "y",
+                "z", "phi1", "phi2", "phi3", "ux", "uy", "uz", "rx", "ry", "rz",
+            ],
+            &[
+                "N", "N", "N", "N*m", "N*m", "N*m", "1", "1", "1", "1/m", "1/m", "1/m", "m", "m",
+                "m", "rad", "rad", "rad", "m", "m", "m", "rad",
+            ],
+            Source::BeamSection(e, xi, r0),
+        )
     }
 
     pub fn len(&self) -> usize {
