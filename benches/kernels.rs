@@ -2,10 +2,11 @@
 //! (assembly with exact tangents, numeric LU with the symbolic analysis reused, solve).
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use flexdyn::compile::from_yaml_str;
 use flexdyn::integrator::{Factors, Integrator};
 use flexdyn::math::rotation::{cayley, exp_map, log_map};
 use flexdyn::math::vec3::V3;
-use flexdyn::model::{from_yaml_str, Scheme};
+use flexdyn::model::Scheme;
 use flexdyn::simulation::Simulation;
 use std::hint::black_box;
 

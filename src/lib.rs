@@ -1,6 +1,7 @@
 //! flexdyn: flexible multibody dynamics with energy-preserving (EP) and energy-decaying (ED)
 //! time integration and sliding joints on flexible beams (Bauchau & Bottasso 2001).
 pub mod beam;
+pub mod compile;
 pub mod elements;
 pub mod integrator;
 pub mod joints;

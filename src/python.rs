@@ -95,7 +95,7 @@ fn model_err(e: model::ModelErrors) -> PyErr {
 #[pyfunction]
 fn parse_yaml(text: &str) -> PyResult<String> {
     guarded("parsing the model", || {
-        let m = model::from_yaml_str(text).map_err(model_err)?;
+        let m = crate::compile::from_yaml_str(text).map_err(model_err)?;
         Ok(serde_json::to_string(&m).expect("model serialises"))
     })
 }
@@ -104,7 +104,7 @@ fn parse_yaml(text: &str) -> PyResult<String> {
 #[pyfunction]
 fn parse_json(text: &str) -> PyResult<String> {
     guarded("parsing the model", || {
-        let m = model::from_json_str(text).map_err(model_err)?;
+        let m = crate::compile::from_json_str(text).map_err(model_err)?;
         Ok(serde_json::to_string(&m).expect("model serialises"))
     })
 }
@@ -130,7 +130,7 @@ struct PySimulation {
 
 impl PySimulation {
     fn compile(model_json: &str, scheme: Option<&str>) -> PyResult<Self> {
-        let m = model::from_json_str(model_json).map_err(model_err)?;
+        let m = crate::compile::from_json_str(model_json).map_err(model_err)?;
         let scheme = match scheme {
             None => m.simulation.scheme,
             Some("ep") => Scheme::Ep,

@@ -257,7 +257,7 @@ impl Channels {
             } => self.add_drive_force(name, joint, coordinate.as_deref(), model, sys),
             Sensor::Energy { .. } => self.add(name, &ENERGY, &["J"], Source::Energy),
             Sensor::BeamSection { beam, eta, s, .. } => {
-                self.add_beam_section(name, beam, *eta, *s, model, sys)
+                self.add_beam_section(name, beam, *eta, *s, sys)
             }
             Sensor::BeamEnergy { beam, .. } => {
                 let i = sys.beam_info.iter().position(|b| &b.name == beam);
@@ -349,7 +349,6 @@ impl Channels {
         beam: &str,
         eta: Option<f64>,
         s: Option<f64>,
-        model: &Model,
         sys: &System,
     ) {
         let info = sys
@@ -359,14 +358,7 @@ impl Channels {
             .expect("validated");
         let s = eta.map_or(s.unwrap_or(0.0), |eta| eta * info.length);
         let (e, xi) = info.locate(s);
-        let b = model
-            .beams
-            .iter()
-            .find(|b| b.name == beam)
-            .expect("validated");
-        let (p0, p1) = b.end_points(model).expect("validated");
-        let line =
-            crate::beam::geometry::ReferenceLine::new(b, p0, p1).expect("validated geometry");
+        let line = &info.line;
         let r0 = line.section_triad(line.segment_at(s.min(info.length)), s);
         self.add(
             name,

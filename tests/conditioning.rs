@@ -5,8 +5,9 @@
 //! column or row loses its scaling, since an unscaled block drifts by a factor 1e8 over it.
 
 use faer::Mat;
+use flexdyn::compile::from_yaml_str;
 use flexdyn::integrator::Integrator;
-use flexdyn::model::{from_yaml_str, Scheme};
+use flexdyn::model::Scheme;
 use flexdyn::simulation::Simulation;
 
 fn condition(dense: &[Vec<f64>]) -> f64 {

@@ -4,8 +4,8 @@
 //! system's angular momentum must change, step by step, by exactly h times that moment —
 //! to round-off, not merely O(h²) — while linear momentum is exact.
 
+use flexdyn::compile::from_yaml_str;
 use flexdyn::math::vec3::V3;
-use flexdyn::model::from_yaml_str;
 use flexdyn::simulation::Simulation;
 
 #[test]

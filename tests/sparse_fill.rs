@@ -1,6 +1,7 @@
 //! Sparsity of the Newton matrix on a model whose size grows.
+use flexdyn::compile::from_yaml_str;
 use flexdyn::integrator::Integrator;
-use flexdyn::model::{from_yaml_str, Scheme};
+use flexdyn::model::Scheme;
 use flexdyn::simulation::Simulation;
 /// The fill of the Newton matrix's LU factors stays bounded on a long chain (a regression
 /// guard for the ordering: AMD gave 14× the matrix's entries under ED, RCM gives 3×).

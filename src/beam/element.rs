@@ -600,7 +600,7 @@ impl Kernel for BeamElement {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::beam::section::{Section, Shorthand};
+    use crate::beam::section::{Section, SectionProperties};
     use crate::beam::shape::{gauss, lagrange, node_coordinates, reduced_points};
     use crate::elements::fd_harness::tangent_error;
     use crate::math::layout::Scheme;
@@ -610,7 +610,7 @@ pub(crate) mod tests {
     const L: f64 = 2.0;
 
     fn section() -> Mat6 {
-        let s = Shorthand {
+        let s = SectionProperties {
             ea: 1e4,
             ga2: 5e3,
             ga3: 4e3,
@@ -622,7 +622,7 @@ pub(crate) mod tests {
             i33: 0.02,
             ..Default::default()
         };
-        Section::from_shorthand(&s).unwrap().stiffness
+        Section::from_properties(&s).unwrap().stiffness
     }
 
     /// A deformed, stressed `n`-node element along x with generic nodal states and history.

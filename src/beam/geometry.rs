@@ -9,7 +9,6 @@
 
 use crate::math::rotation::exp_map;
 use crate::math::vec3::{M3, V3};
-use crate::model::{ArcSpec, Beam, Vec3};
 
 #[derive(Clone, Debug)]
 enum Shape {
@@ -48,15 +47,35 @@ pub struct ReferenceLine {
     length: f64,
 }
 
-fn v(p: &Vec3) -> V3<f64> {
-    V3(*p)
+/// The path of a beam's reference line, its end points resolved.
+#[derive(Clone, Debug)]
+pub enum LinePath {
+    /// Straight segments through the points (at least two).
+    Polyline(Vec<V3<f64>>),
+    /// A circular arc from `start`, turning by `angle` (rad) right-handedly about `axis`
+    /// through `center`; it must reach `end`.
+    Arc {
+        start: V3<f64>,
+        end: V3<f64>,
+        center: V3<f64>,
+        axis: V3<f64>,
+        angle: f64,
+    },
 }
 
-/// End point of an arc starting at `start`.
-pub fn arc_end(start: Vec3, arc: &ArcSpec) -> Vec3 {
-    let axis = v(&arc.axis).scale_f(1.0 / v(&arc.axis).norm().max(1e-300));
-    let c = v(&arc.center);
-    (c + exp_map(&axis.scale_f(arc.angle)).mul_v(&(v(&start) - c))).0
+/// Pre-twist of the sections about the line.
+#[derive(Clone, Debug)]
+pub enum Pretwist {
+    /// Constant rate, rad/m.
+    Rate(f64),
+    /// Angles (rad) at fractions `eta` of the length, piecewise linear.
+    Table { eta: Vec<f64>, angle: Vec<f64> },
+}
+
+/// End point of the arc from `start` turning by `angle` about `axis` through `center`.
+pub fn arc_end(start: V3<f64>, center: V3<f64>, axis: V3<f64>, angle: f64) -> V3<f64> {
+    let axis = axis.scale_f(1.0 / axis.norm().max(1e-300));
+    center + exp_map(&axis.scale_f(angle)).mul_v(&(start - center))
 }
 
 /// The smallest rotation taking unit vector `a` into unit vector `b` (not antiparallel).
@@ -71,23 +90,30 @@ fn align(a: &V3<f64>, b: &V3<f64>) -> M3<f64> {
 }
 
 impl ReferenceLine {
-    /// The line of beam `b` from `start` to `end` (end points already resolved). Errors say
-    /// what is wrong with the geometry, for the validator to attach to the beam.
-    pub fn new(b: &Beam, start: Vec3, end: Vec3) -> Result<ReferenceLine, String> {
-        let user_e2 = b.e2.map(V3);
-        let segments = match &b.arc {
-            Some(arc) => vec![arc_segment(arc, start, end, user_e2)?],
-            None => {
-                let mut pts = vec![v(&start)];
-                pts.extend(b.via.iter().map(v));
-                pts.push(v(&end));
-                polyline_segments(&pts, user_e2)?
-            }
+    /// The line along `path`, its sections' axis 2 starting along `e2` (projected normal to
+    /// the line; a default normal if `None`), pre-twisted by `twist`. Errors say what is wrong
+    /// with the geometry, for the validator to attach to the beam.
+    pub fn new(
+        path: &LinePath,
+        e2: Option<V3<f64>>,
+        twist: &Pretwist,
+    ) -> Result<ReferenceLine, String> {
+        let segments = match path {
+            LinePath::Arc {
+                start,
+                end,
+                center,
+                axis,
+                angle,
+            } => vec![arc_segment((*center, *axis, *angle), *start, *end, e2)?],
+            LinePath::Polyline(pts) => polyline_segments(pts, e2)?,
         };
         let length = segments.iter().map(|s| s.len).sum::<f64>();
-        let twist = match &b.twist {
-            Some(t) => Twist::Table(t.eta.iter().map(|e| e * length).collect(), t.angle.clone()),
-            None => Twist::Rate(b.twist_rate),
+        let twist = match twist {
+            Pretwist::Table { eta, angle } => {
+                Twist::Table(eta.iter().map(|e| e * length).collect(), angle.clone())
+            }
+            Pretwist::Rate(rate) => Twist::Rate(*rate),
         };
         Ok(ReferenceLine {
             segments,
@@ -230,27 +256,23 @@ fn start_frame(t: V3<f64>, e2_hint: Option<V3<f64>>) -> Result<M3<f64>, String> 
     Ok(M3::from_cols(t, e2, t.cross(&e2)))
 }
 
-/// A circular arc from `start` about `arc.axis` through `arc.angle`, which must end at `end`.
+/// A circular arc from `start` about `axis` through `center` by `angle`, which must end at
+/// `end`.
 fn arc_segment(
-    arc: &ArcSpec,
-    start: Vec3,
-    end: Vec3,
+    (center, axis, angle): (V3<f64>, V3<f64>, f64),
+    start: V3<f64>,
+    end: V3<f64>,
     user_e2: Option<V3<f64>>,
 ) -> Result<Segment, String> {
-    let axis = v(&arc.axis);
     let an = axis.norm();
-    if an.is_nan() || an <= 0.0 || !arc.angle.is_finite() || arc.angle == 0.0 {
+    if an.is_nan() || an <= 0.0 || !angle.is_finite() || angle == 0.0 {
         return Err("arc: axis must be nonzero and angle a nonzero number of radians".into());
     }
-    if arc.angle.abs() > 2.0 * std::f64::consts::PI * (1.0 + 1e-12) {
-        return Err(format!(
-            "arc: |angle| must not exceed 2π (got {})",
-            arc.angle
-        ));
+    if angle.abs() > 2.0 * std::f64::consts::PI * (1.0 + 1e-12) {
+        return Err(format!("arc: |angle| must not exceed 2π (got {angle})"));
     }
-    let axis = axis.scale_f(arc.angle.signum() / an);
-    let center = v(&arc.center);
-    let r0 = v(&start) - center;
+    let r0 = start - center;
+    let axis = axis.scale_f(angle.signum() / an);
     let radius = r0.norm();
     if radius == 0.0 {
         return Err("arc: the start point is the centre".into());
@@ -264,16 +286,16 @@ fn arc_segment(
     let t = axis.cross(&r0).scale_f(1.0 / radius);
     // By default axis 3 is the arc's axis: in-plane bending is κ₃.
     let frame0 = start_frame(t, user_e2.or(Some(axis.cross(&t))))?;
-    let reach = v(&arc_end(start, arc));
-    if (reach - v(&end)).norm() > 1e-9 * radius.max(1.0) {
+    let reach = arc_end(start, center, axis, angle.abs());
+    if (reach - end).norm() > 1e-9 * radius.max(1.0) {
         return Err(format!(
             "arc: ends at {:?}, not at the given end {:?}; leave out `end` or make it match",
-            reach.0, end
+            reach.0, end.0
         ));
     }
     Ok(Segment {
         s0: 0.0,
-        len: radius * arc.angle.abs(),
+        len: radius * angle.abs(),
         shape: Shape::Arc {
             center,
             axis,
@@ -329,10 +351,6 @@ fn polyline_segments(pts: &[V3<f64>], user_e2: Option<V3<f64>>) -> Result<Vec<Se
 mod tests {
     use super::*;
 
-    fn beam() -> Beam {
-        serde_json::from_str(r#"{"name": "b", "elements": 4, "section": {"ea": 1, "ga2": 1, "ga3": 1, "gj": 1, "ei2": 1, "ei3": 1, "m": 1, "i22": 1, "i33": 1}}"#).unwrap()
-    }
-
     /// Material curvature of a frame field by central differences: axial(Rᵀ R′).
     fn fd_curvature(f: impl Fn(f64) -> M3<f64>, s: f64) -> V3<f64> {
         let d = 1e-6;
@@ -344,15 +362,15 @@ mod tests {
 
     #[test]
     fn arc_frames_follow_the_tangent_and_their_curvature_is_exact() {
-        let mut b = beam();
-        b.arc = Some(ArcSpec {
-            center: [0.0, 2.0, 0.0],
-            axis: [0.0, 0.0, 1.0],
+        let (start, center, axis) = (V3::zero(), V3([0.0, 2.0, 0.0]), V3([0.0, 0.0, 1.0]));
+        let path = LinePath::Arc {
+            start,
+            end: arc_end(start, center, axis, 2.0),
+            center,
+            axis,
             angle: 2.0,
-        });
-        b.twist_rate = 0.3;
-        let start = [0.0, 0.0, 0.0];
-        let line = ReferenceLine::new(&b, start, arc_end(start, b.arc.as_ref().unwrap())).unwrap();
+        };
+        let line = ReferenceLine::new(&path, None, &Pretwist::Rate(0.3)).unwrap();
         assert!((line.length() - 4.0).abs() < 1e-14);
         for s in [0.3, 1.7, 3.9] {
             let d = 1e-6;
@@ -371,10 +389,9 @@ mod tests {
 
     #[test]
     fn polyline_frames_turn_minimally_at_corners() {
-        let mut b = beam();
-        b.via = vec![[1.0, 0.0, 0.0]];
-        b.e2 = Some([0.0, 1.0, 0.0]);
-        let line = ReferenceLine::new(&b, [0.0; 3], [1.0, 1.0, 0.0]).unwrap();
+        let path = LinePath::Polyline(vec![V3::zero(), V3([1.0, 0.0, 0.0]), V3([1.0, 1.0, 0.0])]);
+        let e2 = Some(V3([0.0, 1.0, 0.0]));
+        let line = ReferenceLine::new(&path, e2, &Pretwist::Rate(0.0)).unwrap();
         assert_eq!(line.segment_count(), 2);
         let f = line.section_triad(1, 1.5);
         // Turning by 90° about z takes (x, y) to (y, −x); axis 3 stays z.
@@ -388,12 +405,12 @@ mod tests {
 
     #[test]
     fn twist_tables_interpolate_angles_and_give_their_rates() {
-        let mut b = beam();
-        b.twist = Some(crate::model::TwistTable {
+        let twist = Pretwist::Table {
             eta: vec![0.0, 0.5, 1.0],
             angle: vec![0.0, 0.4, 0.5],
-        });
-        let line = ReferenceLine::new(&b, [0.0; 3], [2.0, 0.0, 0.0]).unwrap();
+        };
+        let path = LinePath::Polyline(vec![V3::zero(), V3([2.0, 0.0, 0.0])]);
+        let line = ReferenceLine::new(&path, None, &twist).unwrap();
         assert!((line.curvature(0, 0.5).0[0] - 0.4).abs() < 1e-14);
         assert!((line.curvature(0, 1.5).0[0] - 0.1).abs() < 1e-14);
         let r = line.section_triad(0, 1.5);

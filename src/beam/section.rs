@@ -5,18 +5,14 @@
 //! measured at the reference line in the section frame (axis 1 along the beam).
 
 use crate::math::vec3::{M3, V3};
-use schemars::JsonSchema;
-use serde::{Deserialize, Serialize};
 
 pub type Mat6 = [[f64; 6]; 6];
 
-/// The usual shorthand of a section: principal stiffnesses about the tension and shear
-/// centres, and mass properties about the centre of mass, with the centres' offsets (x₂, x₃)
-/// from the reference line.
-/// It is also the `section:` of a beam in the model file.
-#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug, Default, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct Shorthand {
+/// The usual engineering description of a section: principal stiffnesses about the tension
+/// and shear centres, and mass properties about the centre of mass, with the centres' offsets
+/// (x₂, x₃) from the reference line. (The model file's `section:` shorthand maps onto it.)
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SectionProperties {
     /// Axial stiffness EA, N.
     pub ea: f64,
     /// Shear stiffnesses GA₂, GA₃ (including shear correction factors), N.
@@ -33,68 +29,11 @@ pub struct Shorthand {
     /// ∫ρx₂², i₂₃ = ∫ρx₂x₃ (kg·m); the polar moment is i₂₂ + i₃₃.
     pub i22: f64,
     pub i33: f64,
-    #[serde(default)]
     pub i23: f64,
-    #[serde(default)]
+    /// Offsets (x₂, x₃) of the centre of mass, tension centre and shear centre, m.
     pub cm_offset: [f64; 2],
-    #[serde(default)]
     pub tension_center: [f64; 2],
-    #[serde(default)]
     pub shear_center: [f64; 2],
-}
-
-/// Full sectional matrices in the section frame (axis 1 along the beam), strains ordered
-/// `[e₁, γ₂, γ₃, κ₁, κ₂, κ₃]` and velocities `[v, ω]`; both symmetric positive definite.
-#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct Matrices {
-    /// 6×6 stiffness, rows of N (forces) and N·m (moments) per unit strain/curvature.
-    pub stiffness: Mat6,
-    /// 6×6 mass per unit length about the reference line.
-    pub mass: Mat6,
-}
-
-/// A beam's `section:`: the shorthand (`ea`, `ga2`, …), or full `stiffness` and `mass`
-/// matrices.
-#[derive(Serialize, JsonSchema, Clone, Debug, PartialEq)]
-#[serde(untagged)]
-pub enum SectionSpec {
-    Matrices(Matrices),
-    Shorthand(Shorthand),
-}
-
-impl<'de> Deserialize<'de> for SectionSpec {
-    /// Chooses the form by its keys, so that an error names the missing or wrong field of
-    /// the form the user meant rather than "matched no variant".
-    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        use serde::de::Error;
-        let v = serde_json::Value::deserialize(d)?;
-        let full = v.get("stiffness").is_some() || v.get("mass").is_some();
-        if full {
-            serde_json::from_value(v)
-                .map(SectionSpec::Matrices)
-                .map_err(D::Error::custom)
-        } else {
-            serde_json::from_value(v)
-                .map(SectionSpec::Shorthand)
-                .map_err(D::Error::custom)
-        }
-    }
-}
-
-impl From<Shorthand> for SectionSpec {
-    fn from(s: Shorthand) -> Self {
-        SectionSpec::Shorthand(s)
-    }
-}
-
-impl SectionSpec {
-    pub fn section(&self) -> Result<Section, String> {
-        match self {
-            SectionSpec::Shorthand(s) => Section::from_shorthand(s),
-            SectionSpec::Matrices(m) => Section::from_matrices(m.stiffness, m.mass),
-        }
-    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -174,11 +113,11 @@ impl Section {
         Ok(Section { stiffness, mass })
     }
 
-    /// From the shorthand. The strain energy per unit length is
+    /// From engineering properties. The strain energy per unit length is
     /// `½EA(e₁ + x₃ᵗκ₂ − x₂ᵗκ₃)² + ½GA₂(γ₂ − x₃ˢκ₁)² + ½GA₃(γ₃ + x₂ˢκ₁)² + ½GJκ₁² + ½EI₂κ₂² + ½EI₃κ₃²`
     /// (axial strain at the tension centre, shear strains at the shear centre), and the kinetic
     /// energy `½m|v + ω × c|² + ½ωᵀJ_c ω` with the centre of mass at `c = (0, x₂ᶜ, x₃ᶜ)`.
-    pub fn from_shorthand(s: &Shorthand) -> Result<Section, String> {
+    pub fn from_properties(s: &SectionProperties) -> Result<Section, String> {
         let named = [
             ("ea", s.ea),
             ("ga2", s.ga2),
@@ -275,8 +214,8 @@ fn check_spd(a: &Mat6, what: &str) -> Result<(), String> {
 mod tests {
     use super::*;
 
-    fn sample() -> Shorthand {
-        Shorthand {
+    fn sample() -> SectionProperties {
+        SectionProperties {
             ea: 44e6,
             ga2: 2.8e6,
             ga3: 14e6,
@@ -303,14 +242,14 @@ mod tests {
     #[test]
     fn beam_slider_section_without_offsets_is_diagonal() {
         // The paper's beam (section 7.1): EA 44 MN, GK 2.8/14 MN, GJ 28 kN·m², EI 300/23 kN·m².
-        let s = Shorthand {
+        let s = SectionProperties {
             i23: 0.0,
             cm_offset: [0.0; 2],
             tension_center: [0.0; 2],
             shear_center: [0.0; 2],
             ..sample()
         };
-        let sec = Section::from_shorthand(&s).unwrap();
+        let sec = Section::from_properties(&s).unwrap();
         let d = [44e6, 2.8e6, 14e6, 28e3, 300e3, 23e3];
         for i in 0..6 {
             for j in 0..6 {
@@ -323,7 +262,7 @@ mod tests {
     #[test]
     fn strain_and_kinetic_energies_match_their_definitions_with_offsets() {
         let s = sample();
-        let sec = Section::from_shorthand(&s).unwrap();
+        let sec = Section::from_properties(&s).unwrap();
         let eps = [1e-4, -2e-4, 3e-4, 0.01, -0.02, 0.015];
         let [yt, zt] = s.tension_center;
         let [ys, zs] = s.shear_center;
@@ -350,22 +289,22 @@ mod tests {
 
     #[test]
     fn inadmissible_sections_are_errors() {
-        assert!(Section::from_shorthand(&Shorthand {
+        assert!(Section::from_properties(&SectionProperties {
             ea: -1.0,
             ..sample()
         })
         .unwrap_err()
         .contains("ea must be positive"));
-        let bad_inertia = Shorthand {
+        let bad_inertia = SectionProperties {
             i23: 0.01,
             ..sample()
         }; // i23² > i22·i33
-        assert!(Section::from_shorthand(&bad_inertia)
+        assert!(Section::from_properties(&bad_inertia)
             .unwrap_err()
             .contains("positive definite"));
-        let mut k = Section::from_shorthand(&sample()).unwrap().stiffness;
+        let mut k = Section::from_properties(&sample()).unwrap().stiffness;
         k[0][1] += 1.0;
-        let m = Section::from_shorthand(&sample()).unwrap().mass;
+        let m = Section::from_properties(&sample()).unwrap().mass;
         assert!(Section::from_matrices(k, m)
             .unwrap_err()
             .contains("symmetric"));

@@ -259,9 +259,8 @@ joints:
     fn decoupled_update_is_exact_at_rest(text: &str) {
         use crate::elements::StepCtx;
         use crate::integrator::Integrator;
-        use crate::system::System;
-        let model = crate::model::from_yaml_str(&text).unwrap();
-        let sys = System::compile_with(&model, Scheme::Ed).unwrap();
+        let model = crate::compile::from_yaml_str(&text).unwrap();
+        let sys = crate::compile::compile(&model, Scheme::Ed).unwrap();
         let mut integ = Integrator::new(&sys, &model.simulation);
         let h = 1e-3;
         let state = sys.initial.clone();

@@ -2,13 +2,13 @@
 
 use super::{Model, ModelError, ModelErrors};
 
-/// Parse and validate a YAML model.
-pub fn from_yaml_str(text: &str) -> Result<Model, ModelErrors> {
+/// Parse a YAML model (checked by [`crate::compile::validate`]).
+pub fn parse_yaml(text: &str) -> Result<Model, ModelErrors> {
     parse(serde_norway::Deserializer::from_str(text))
 }
 
-/// Parse and validate a JSON model (what the Python builder sends).
-pub fn from_json_str(text: &str) -> Result<Model, ModelErrors> {
+/// Parse a JSON model (what the Python builder sends).
+pub fn parse_json(text: &str) -> Result<Model, ModelErrors> {
     parse(&mut serde_json::Deserializer::from_str(text))
 }
 
@@ -16,16 +16,14 @@ fn parse<'de, D: serde::Deserializer<'de>>(de: D) -> Result<Model, ModelErrors>
 where
     D::Error: std::fmt::Display,
 {
-    let model: Model = serde_path_to_error::deserialize(de).map_err(|e| {
+    serde_path_to_error::deserialize(de).map_err(|e| {
         let path = e.path().to_string();
         let inner = e.into_inner().to_string();
         ModelErrors::one(ModelError::new(
             if path == "." { String::new() } else { path },
             clean(&inner),
         ))
-    })?;
-    model.validate()?;
-    Ok(model)
+    })
 }
 
 /// Serde's message for an untagged enum says nothing useful; say what is accepted. The YAML

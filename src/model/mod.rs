@@ -1,15 +1,17 @@
-//! The model file: plain serde types, validated with precise paths in errors.
+//! The model file: plain serde types, and errors with precise paths.
 //!
 //! A model is what a user writes in YAML (or builds in Python, which produces the same JSON).
-//! Everything here is declarative; [`crate::system::System`] compiles it into numbered unknowns,
-//! elements and constraints. The JSON Schema printed by `flexdyn schema` is generated from these
+//! Everything here is declarative and imports nothing from the physics; [`crate::compile`]
+//! validates it and compiles it into numbered unknowns, elements and constraints. The JSON Schema printed by `flexdyn schema` is generated from these
 //! very types.
 
+pub mod check;
 mod load;
-mod validate;
+mod section;
 
-pub use load::{from_json_str, from_yaml_str};
-pub use validate::{driven_coordinate, ModelError, ModelErrors};
+pub use check::{ModelError, ModelErrors};
+pub use load::{parse_json, parse_yaml};
+pub use section::{Matrices, SectionSpec, Shorthand};
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -138,7 +140,7 @@ pub struct Beam {
     pub order: usize,
     /// Sectional properties, uniform along the span (or give `sections`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub section: Option<crate::beam::section::SectionSpec>,
+    pub section: Option<SectionSpec>,
     /// Sections at stations along the span, interpolated linearly between them; the first
     /// station at eta = 0, the last at eta = 1.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -174,7 +176,7 @@ pub struct Beam {
 pub struct SectionStation {
     /// Fraction of the beam length.
     pub eta: f64,
-    pub section: crate::beam::section::SectionSpec,
+    pub section: SectionSpec,
 }
 
 /// Section angle θ(η) about the beam axis, rad, piecewise linear in η.
@@ -199,6 +201,16 @@ pub struct ArcSpec {
     pub angle: f64,
 }
 
+impl ArcSpec {
+    /// Where the arc from `start` ends.
+    pub fn end(&self, start: Vec3) -> Vec3 {
+        use crate::math::{rotation::exp_map, vec3::V3};
+        let axis = V3(self.axis).scale_f(1.0 / V3(self.axis).norm().max(1e-300));
+        let c = V3(self.center);
+        (c + exp_map(&axis.scale_f(self.angle)).mul_v(&(V3(start) - c))).0
+    }
+}
+
 fn default_order() -> usize {
     3
 }
@@ -220,20 +232,10 @@ impl Beam {
         };
         let a = at(&self.start, &self.start_node)?;
         let b = match &self.arc {
-            Some(arc) => crate::beam::geometry::arc_end(a, arc),
+            Some(arc) => arc.end(a),
             None => at(&self.end, &self.end_node)?,
         };
         Some((a, b))
-    }
-
-    /// Reference length along the beam's line, if its end points are known.
-    pub fn length(&self, model: &Model) -> Option<f64> {
-        let (a, b) = self.end_points(model)?;
-        Some(
-            crate::beam::geometry::ReferenceLine::new(self, a, b)
-                .ok()?
-                .length(),
-        )
     }
 
     /// Nodes along the beam: elements × order + 1.
@@ -697,6 +699,46 @@ impl Joint {
             }
             _ => vec![],
         }
+    }
+}
+
+/// The coordinate a `drive_force` sensor reads: the one named, or the joint's only driven one.
+pub fn driven_coordinate<'a>(
+    j: &'a Joint,
+    name: Option<&str>,
+) -> Result<CoordinateSpec<'a>, String> {
+    let coords = j.coordinates();
+    let driven: Vec<_> = coords
+        .iter()
+        .filter(|c| c.drive.is_some())
+        .copied()
+        .collect();
+    match name {
+        Some(n) => match coords.iter().find(|c| c.name == n) {
+            None => Err(format!(
+                "joint `{}` has no coordinate `{n}` (it has: {})",
+                j.name(),
+                if coords.is_empty() { "none".to_string() } else { coords.iter().map(|c| c.name).collect::<Vec<_>>().join(", ") }
+            )),
+            Some(c) if c.drive.is_none() => Err(format!(
+                "joint `{}` has no drive on `{n}`; add `{}:` to it or remove this sensor",
+                j.name(),
+                c.drive_field
+            )),
+            Some(c) => Ok(*c),
+        },
+        None => match driven.len() {
+            0 => Err(format!(
+                "joint `{}` has no drive; add `{}:` to it or remove this sensor",
+                j.name(),
+                coords.first().map_or("drive", |c| c.drive_field)
+            )),
+            1 => Ok(driven[0]),
+            _ => Err(format!(
+                "joint `{}` has drives on both `delta` and `phi`; say which with `coordinate: delta` or `coordinate: phi`",
+                j.name()
+            )),
+        },
     }
 }
 

@@ -145,7 +145,7 @@ impl Simulation {
         let statics = model.simulation.analysis == Analysis::Static;
         // A static solve has no velocities: it uses the EP layout whatever the scheme.
         let layout_scheme = if statics { Scheme::Ep } else { scheme };
-        let system = System::compile_with(model, layout_scheme).map_err(SimError::Model)?;
+        let system = crate::compile::compile(model, layout_scheme).map_err(SimError::Model)?;
         check_redundancy(model, &system).map_err(SimError::Model)?;
         let mut settings = model.simulation.clone();
         settings.scheme = scheme;

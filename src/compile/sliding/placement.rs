@@ -1,7 +1,6 @@
-//! Compiling a sliding joint: where the contact point starts, how the follower is attached to
+//! Placing a sliding joint: where the contact point starts, how the follower is attached to
 //! it, and the user's η-quantities (drive, spring) brought to the element coordinate ζ.
 
-use super::BeamInfo;
 use crate::beam::path::{ArcMap, BeamPath};
 use crate::elements::coordinate::SpringLaw;
 use crate::joints::sliding::{orthonormal_frame, SlidingKind};
@@ -9,6 +8,7 @@ use crate::joints::Attachment;
 use crate::math::vec3::{M3, V3};
 use crate::model::SpringDamper;
 use crate::state::NodeState;
+use crate::system::BeamInfo;
 
 /// The beam point `P(ζ)` and its section frame (interpolated directors made orthonormal) in
 /// the initial configuration.

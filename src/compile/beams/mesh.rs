@@ -2,10 +2,12 @@
 //! their reference triads, lumped nodal inertia, consistent load weights, and per element the
 //! Gauss points with their section, reference strains and initial history.
 
+use super::section_of;
 use crate::beam::element::{write_history, GaussPoint, HISTORY_PER_POINT};
 use crate::beam::geometry::ReferenceLine;
 use crate::beam::section::Section;
 use crate::beam::shape::{gauss, lagrange, node_coordinates, reduced_points, MAX_NODES};
+use crate::compile::nodes::{Lumped, NodeTable};
 use crate::math::vec3::{M3, V3};
 use crate::model::Beam;
 use crate::state::NodeState;
@@ -46,7 +48,7 @@ fn lumping_weights(n: usize) -> &'static [f64] {
 /// linear blend of the stations around `s`.
 pub fn section_at(b: &Beam, length: f64, s: f64) -> Section {
     if let Some(sec) = &b.section {
-        return sec.section().expect("validated section");
+        return section_of(sec).expect("validated section");
     }
     let eta = (s / length).clamp(0.0, 1.0);
     let st = &b.sections;
@@ -57,52 +59,19 @@ pub fn section_at(b: &Beam, length: f64, s: f64) -> Section {
     let (a, c) = (&st[j], &st[j + 1]);
     let w = (eta - a.eta) / (c.eta - a.eta);
     Section::blend(
-        &a.section.section().expect("validated section"),
-        &c.section.section().expect("validated section"),
+        &section_of(&a.section).expect("validated section"),
+        &section_of(&c.section).expect("validated section"),
         w,
     )
 }
 
-/// Lumped inertia per node, about the node and in its triad: mass, first moment of mass
-/// `Σ m c` (non-zero when sections have an offset centre of mass) and inertia tensor.
-#[derive(Clone, Debug, Default)]
-pub struct Lumped {
-    pub mass: Vec<f64>,
-    pub first_moment: Vec<V3<f64>>,
-    pub inertia: Vec<M3<f64>>,
-}
-
-impl Lumped {
-    pub fn push_node(&mut self) {
-        self.mass.push(0.0);
-        self.first_moment.push(V3::zero());
-        self.inertia.push(M3::zero());
-    }
-}
-
-/// Adds the beam's nodes, inertia and elements. Validation has checked the input.
-pub fn mesh(
-    b: &Beam,
-    names: &mut Vec<String>,
-    nodes: &mut Vec<NodeState>,
-    velocity_given: &mut Vec<bool>,
-    lumped: &mut Lumped,
-) -> BeamMesh {
-    let (start, end) = end_points(b, names, nodes);
-    let line = ReferenceLine::new(b, start.0, end.0).expect("validated geometry");
+/// Adds the beam's nodes, inertia and elements along `line` from `start`. Validation has
+/// checked the input.
+pub fn mesh(b: &Beam, line: &ReferenceLine, start: V3<f64>, table: &mut NodeTable) -> BeamMesh {
     let length = line.length();
     let spans = line.element_spans(b.elements);
     let along = Along::new(b, &spans);
-    let ids = place_nodes(
-        b,
-        &line,
-        &along,
-        start,
-        names,
-        nodes,
-        velocity_given,
-        lumped,
-    );
+    let ids = place_nodes(b, line, &along, start, table);
     let mut out = Vec::with_capacity(spans.len());
     for (e, &(seg, sa, sb)) in spans.iter().enumerate() {
         let el_nodes: Vec<usize> = (0..along.nn).map(|a| ids[e * b.order + a]).collect();
@@ -110,15 +79,16 @@ pub fn mesh(
             let s = along.node_s(e, a);
             let section = section_at(b, length, s);
             lump(
-                lumped,
+                &mut table.lumped,
                 id,
-                &nodes[id],
+                &table.states[id],
                 &line.section_triad(seg, s),
                 &section,
                 along.lumping[a] * (sb - sa),
             );
         }
-        let (points, history) = gauss_points(b, &line, length, (seg, sa, sb), &el_nodes, nodes);
+        let (points, history) =
+            gauss_points(b, line, length, (seg, sa, sb), &el_nodes, &table.states);
         out.push(MeshedElement {
             name: format!("{}[{e}]", b.name),
             nodes: el_nodes,
@@ -133,23 +103,6 @@ pub fn mesh(
         spans: spans.iter().map(|&(_, a, b)| (a, b)).collect(),
         length,
     }
-}
-
-/// A beam's start and end points: given, an existing node's, or (the end) along its arc.
-fn end_points(b: &Beam, names: &[String], nodes: &[NodeState]) -> (V3<f64>, V3<f64>) {
-    let find = |n: &str| names.iter().position(|x| x == n).expect("validated node");
-    let start = match (&b.start, &b.start_node) {
-        (Some(p), _) => V3(*p),
-        (None, Some(n)) => nodes[find(n)].x,
-        _ => unreachable!("validated"),
-    };
-    let end = match (&b.end, &b.end_node, &b.arc) {
-        (_, _, Some(arc)) => V3(crate::beam::geometry::arc_end(start.0, arc)),
-        (Some(p), _, _) => V3(*p),
-        (None, Some(n), _) => nodes[find(n)].x,
-        _ => unreachable!("validated"),
-    };
-    (start, end)
 }
 
 /// Where the nodes of a beam's elements sit along it.
@@ -182,16 +135,12 @@ impl<'a> Along<'a> {
 
 /// The beam's global node indices along it, creating its nodes (`<beam>.k`) with their triads
 /// and initial velocities (rigid motion from the beam's `velocity` and `angular_velocity`).
-#[allow(clippy::too_many_arguments)]
 fn place_nodes(
     b: &Beam,
     line: &ReferenceLine,
     along: &Along,
     start: V3<f64>,
-    names: &mut Vec<String>,
-    nodes: &mut Vec<NodeState>,
-    velocity_given: &mut Vec<bool>,
-    lumped: &mut Lumped,
+    table: &mut NodeTable,
 ) -> Vec<usize> {
     let n_el = along.spans.len();
     let count = b.node_count();
@@ -205,27 +154,20 @@ fn place_nodes(
         // new `<beam>.k` (names cannot contain `.`), so no search: meshing stays linear.
         let shared = (k == 0 && b.start_node.is_some()) || (k + 1 == count && b.end_node.is_some());
         if shared {
-            ids.push(
-                names
-                    .iter()
-                    .position(|x| *x == name)
-                    .expect("validated node"),
-            );
+            ids.push(table.index(&name));
             continue;
         }
         let (x, r) = (line.point(seg, s), line.section_triad(seg, s));
         let omega = V3(b.angular_velocity.unwrap_or_default());
         let v = V3(b.velocity.unwrap_or_default()) + omega.cross(&(x - start));
-        names.push(name);
-        nodes.push(NodeState {
+        let state = NodeState {
             x,
             r,
             v,
             w: r.tmul_v(&omega),
-        });
-        velocity_given.push(b.velocity.is_some() || b.angular_velocity.is_some());
-        lumped.push_node();
-        ids.push(nodes.len() - 1);
+        };
+        let given = b.velocity.is_some() || b.angular_velocity.is_some();
+        ids.push(table.push(name, state, given));
     }
     ids
 }

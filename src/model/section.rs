@@ -1,0 +1,82 @@
+//! A beam section as the model file gives it: the usual shorthand or full 6×6 matrices. The
+//! compiler turns it into the physics' `Section`.
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+/// The usual shorthand of a section: principal stiffnesses about the tension and shear
+/// centres, and mass properties about the centre of mass, with the centres' offsets (x₂, x₃)
+/// from the reference line.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug, Default, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Shorthand {
+    /// Axial stiffness EA, N.
+    pub ea: f64,
+    /// Shear stiffnesses GA₂, GA₃ (including shear correction factors), N.
+    pub ga2: f64,
+    pub ga3: f64,
+    /// Torsional stiffness GJ, N·m².
+    pub gj: f64,
+    /// Bending stiffnesses EI₂ (about axis 2, curvature κ₂) and EI₃, N·m².
+    pub ei2: f64,
+    pub ei3: f64,
+    /// Mass per unit length, kg/m.
+    pub m: f64,
+    /// Mass moments of inertia per unit length about the centre of mass: i₂₂ = ∫ρx₃², i₃₃ =
+    /// ∫ρx₂², i₂₃ = ∫ρx₂x₃ (kg·m); the polar moment is i₂₂ + i₃₃.
+    pub i22: f64,
+    pub i33: f64,
+    #[serde(default)]
+    pub i23: f64,
+    #[serde(default)]
+    pub cm_offset: [f64; 2],
+    #[serde(default)]
+    pub tension_center: [f64; 2],
+    #[serde(default)]
+    pub shear_center: [f64; 2],
+}
+
+/// Full sectional matrices in the section frame (axis 1 along the beam), strains ordered
+/// `[e₁, γ₂, γ₃, κ₁, κ₂, κ₃]` and velocities `[v, ω]`; both symmetric positive definite.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Matrices {
+    /// 6×6 stiffness, rows of N (forces) and N·m (moments) per unit strain/curvature.
+    pub stiffness: [[f64; 6]; 6],
+    /// 6×6 mass per unit length about the reference line.
+    pub mass: [[f64; 6]; 6],
+}
+
+/// A beam's `section:`: the shorthand (`ea`, `ga2`, …), or full `stiffness` and `mass`
+/// matrices.
+#[derive(Serialize, JsonSchema, Clone, Debug, PartialEq)]
+#[serde(untagged)]
+pub enum SectionSpec {
+    Matrices(Matrices),
+    Shorthand(Shorthand),
+}
+
+impl<'de> Deserialize<'de> for SectionSpec {
+    /// Chooses the form by its keys, so that an error names the missing or wrong field of
+    /// the form the user meant rather than "matched no variant".
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        let v = serde_json::Value::deserialize(d)?;
+        let full = v.get("stiffness").is_some() || v.get("mass").is_some();
+        if full {
+            serde_json::from_value(v)
+                .map(SectionSpec::Matrices)
+                .map_err(D::Error::custom)
+        } else {
+            serde_json::from_value(v)
+                .map(SectionSpec::Shorthand)
+                .map_err(D::Error::custom)
+        }
+    }
+}
+
+impl From<Shorthand> for SectionSpec {
+    fn from(s: Shorthand) -> Self {
+        SectionSpec::Shorthand(s)
+    }
+}
