@@ -20,7 +20,7 @@ MODELS = ("beam_pendulum", "free_collar", "four_bar")
 
 def run(model: str, scheme: str, dt: float, t_end: float) -> tuple[float, dict]:
     m = fd.load(EXAMPLES / f"{model}.yaml")
-    m.settings(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end)
+    m.simulation(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end)
     start = time.process_time()
     res = fd.simulate(m)
     return time.process_time() - start, res.attrs["stats"]

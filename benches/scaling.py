@@ -19,7 +19,7 @@ STEPS = 20
 
 def pendulum(elements, scheme):
     m = beam_pendulum(elements)
-    m.settings(scheme=scheme, step_control="fixed", dt=1e-3, t_end=STEPS * 1e-3)
+    m.simulation(scheme=scheme, step_control="fixed", dt=1e-3, t_end=STEPS * 1e-3)
     return m
 
 

@@ -18,7 +18,7 @@ def chain(n, length=0.5):
     m = fd.Model(f"chain_{n}", gravity=[0, 0, -9.81])
     for i in range(n):
         m.node(f"n{i}", [length * (i + 0.5), 0, 0])
-        m.rigid_body(f"link{i}", f"n{i}", mass=1.0, inertia=[1e-3, length**2 / 12, length**2 / 12])
+        m.body(f"link{i}", f"n{i}", mass=1.0, inertia=[1e-3, length**2 / 12, length**2 / 12])
         m.revolute(
             f"pin{i}",
             "ground" if i == 0 else f"n{i - 1}",
@@ -35,7 +35,7 @@ def beam_pendulum(elements=12):
     the root, 40 kg tip mass, released horizontally under gravity, 2 s."""
     m = fd.Model("beam pendulum", gravity=[0, -9.81, 0])
     m.node("root", [0, 0, 0]).node("tip", [2.4, 0, 0])
-    m.rigid_body("tip_body", "tip", mass=40.0, inertia=[0.45, 0.225, 0.225])
+    m.body("tip_body", "tip", mass=40.0, inertia=[0.45, 0.225, 0.225])
     m.beam(
         "beam",
         start_node="root",

@@ -36,7 +36,7 @@ from simulate import beam_pendulum as _beam_pendulum
 
 def _load(path, **settings):
     m = fd.load(ROOT / "examples" / path)
-    m.settings(**{**m.data["simulation"], **settings})
+    m.simulation(**{**m.data["simulation"], **settings})
     return m
 
 
@@ -59,7 +59,7 @@ def heavy_top():
 def beam_pendulum():
     m = _beam_pendulum()
     m.sensor("node_position", "watch", node="tip")
-    m.settings(t_end=2.0)
+    m.simulation(t_end=2.0)
     return m, POSITION, 0.01, [1.6e-2, 8e-3, 4e-3, 2e-3, 1e-3], 1e-4, ALL_TOLERANCES
 
 

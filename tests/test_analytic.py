@@ -24,7 +24,7 @@ def test_small_amplitude_pendulum_period(scheme):
     model.node(
         "bob", [0, 0, -L], angular_velocity=[0, theta0 * omega, 0], velocity=[-theta0 * omega * L, 0, 0]
     )
-    model.rigid_body("ball", "bob", mass=m, inertia=[i_cm] * 3)
+    model.body("ball", "bob", mass=m, inertia=[i_cm] * 3)
     model.revolute("pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0])
     model.sensor("joint_coordinate", "angle", joint="pin")
     res = fd.simulate(model, scheme=scheme, step_control="fixed", dt=1e-3, t_end=12.0)
@@ -101,7 +101,7 @@ def fourbar_model(theta20):
     m = fd.Model("four-bar")
     for k, mass in MASS.items():
         m.node(k, cms[k])
-        m.rigid_body(f"{k}_body", k, mass=mass, inertia=bar_inertia(mass, LEN[k], dirs[k]))
+        m.body(f"{k}_body", k, mass=mass, inertia=bar_inertia(mass, LEN[k], dirs[k]))
     # Revolute–spherical–universal–revolute: a spatial four-bar with one degree of freedom
     # and no redundant constraint.
     m.revolute("crank_pin", "ground", "crank", axis=[0, 0, 1], position=[0, 0, 0], drive=f"{RATE}*t")

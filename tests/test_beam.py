@@ -24,7 +24,7 @@ def free_beam(scheme, dt, t_end, order=2):
     # Released tumbling, with a tip mass whose own velocity is not that of the rigid motion,
     # so that the beam bends, twists and stretches in 3-D (strain energy ~14 % of the total).
     m.node("tip", [2, 0, 0], velocity=[0.0, 3.0, -2.0], angular_velocity=[2.0, 0, 0])
-    m.rigid_body("tip_mass", "tip", mass=0.3, inertia=[1e-3, 1e-3, 1e-3])
+    m.body("tip_mass", "tip", mass=0.3, inertia=[1e-3, 1e-3, 1e-3])
     m.beam(
         "b",
         [0, 0, 0],
@@ -36,7 +36,7 @@ def free_beam(scheme, dt, t_end, order=2):
         angular_velocity=[0.3, 2.0, 6.0],
     )
     m.sensor("energy", "e").sensor("momentum", "mom")
-    m.settings(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end, newton_tol=1e-13)
+    m.simulation(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end, newton_tol=1e-13)
     return m
 
 
@@ -138,7 +138,7 @@ def test_hanging_beam_carries_the_weight_below_each_section(order, elements):
     }
     m = fd.Model("hanging", gravity=[0, 0, -9.81])
     m.node("top", [0, 0, 0]).node("tip", [0, 0, -2])
-    m.rigid_body("weight", "tip", mass=5.0, inertia=[0.01, 0.01, 0.01])
+    m.body("weight", "tip", mass=5.0, inertia=[0.01, 0.01, 0.01])
     m.beam("rope", start_node="top", end_node="tip", elements=elements, order=order, section=sec)
     m.spherical("hook", "ground", "top", position=[0, 0, 0])
     stations = [0.1, 0.25, 0.5, 0.75, 0.9]
@@ -234,7 +234,7 @@ def spinning_blade_error(elements):
     }
     m = fd.Model("spinning blade")
     m.node("hub", [0, 0, 0])
-    m.rigid_body("hub_body", "hub", mass=10.0, inertia=[1, 1, 1])
+    m.body("hub_body", "hub", mass=10.0, inertia=[1, 1, 1])
     m.revolute(
         "shaft",
         "ground",

@@ -140,7 +140,7 @@ def unequal_cantilever():
     sec = {**SLENDER, "ei3": 3 * EI, "i22": 1e-3, "i33": 2e-3, "gj": 50.0}
     m.beam("b", [0, 0, 0], [L, 0, 0], elements=12, order=3, section=sec, twist_rate=0.3)
     m.clamp("root", "ground", "b.0")
-    m.node("tip_mass", [L, 0.1, 0]).rigid_body("tip_body", "tip_mass", mass=0.2, inertia=[1e-3] * 3)
+    m.node("tip_mass", [L, 0.1, 0]).body("tip_body", "tip_mass", mass=0.2, inertia=[1e-3] * 3)
     m.clamp("weld", "b.36", "tip_mass")
     return m
 

@@ -28,7 +28,7 @@ def beam_slider_case2(screw: bool):
     m = fd.Model("beam slider, case 2" + (" (twisted, screw)" if screw else ""))
     # Beam R → tip along i1 (12 cubic elements: node beam.9 is B, 0.6 m from R); driver from
     # A = (0.6, −1.6, 0) up to B (3 cubic elements).
-    m.node("tip", [2.4, 0, 0]).rigid_body("tip_body", "tip", mass=40.0, inertia=[0.45, 0.225, 0.225])
+    m.node("tip", [2.4, 0, 0]).body("tip_body", "tip", mass=40.0, inertia=[0.45, 0.225, 0.225])
     kw = {"twist_rate": k1} if screw else {}
     m.beam("beam", [0, 0, 0], end_node="tip", elements=12, order=3, section=BEAM, e2=[0, 1, 0], **kw)
     m.beam("driver", [0.6, -1.6, 0], [0.6, 0, 0], elements=3, order=3, section=DRIVER, e2=[1, 0, 0])

@@ -18,9 +18,9 @@ def slider_crank(scheme, dt=1e-3, t_end=1.0, omega=2 * np.pi):
     m = fd.Model("slider-crank", gravity=[0, -G, 0])
     # Initial configuration: θ = 0, pin at (r, 0), slider at (r + l, 0), rod centre between.
     m.node("crank", [0, 0, 0]).node("rod", [r + l / 2, 0, 0]).node("slider", [r + l, 0, 0])
-    m.rigid_body("crank_body", "crank", mass=2.0, inertia=[0.01, 0.01, 0.02])
-    m.rigid_body("rod_body", "rod", mass=1.5, inertia=[0.001, 1.5 * l**2 / 12, 1.5 * l**2 / 12])
-    m.rigid_body("slider_body", "slider", mass=3.0, inertia=[0.01, 0.01, 0.01])
+    m.body("crank_body", "crank", mass=2.0, inertia=[0.01, 0.01, 0.02])
+    m.body("rod_body", "rod", mass=1.5, inertia=[0.001, 1.5 * l**2 / 12, 1.5 * l**2 / 12])
+    m.body("slider_body", "slider", mass=3.0, inertia=[0.01, 0.01, 0.01])
     m.revolute("shaft", "ground", "crank", axis=[0, 0, 1], position=[0, 0, 0], drive=f"{omega}*t")
     m.spherical("pin", "crank", "rod", position=[r, 0, 0])
     m.universal("wrist", "rod", "slider", axis1=[0, 0, 1], axis2=[0, 1, 0], position=[r + l, 0, 0])
@@ -88,7 +88,7 @@ def nut_on_screw(scheme, pitch, t_end, dt=1e-3):
     m_nut, j_nut = 0.5, 2e-4
     m = fd.Model("nut", gravity=[0, 0, -G])
     m.node("nut", [0, 0, 0])
-    m.rigid_body("nut_body", "nut", mass=m_nut, inertia=[1e-4, 1e-4, j_nut])
+    m.body("nut_body", "nut", mass=m_nut, inertia=[1e-4, 1e-4, j_nut])
     m.screw("thread", "ground", "nut", axis=[0, 0, 1], pitch=pitch)
     m.sensor("joint_coordinate", "q", joint="thread").sensor("node_rotation", "rot", node="nut")
     m.sensor("energy", "e").sensor("node_position", "p", node="nut")
@@ -126,7 +126,7 @@ def test_sprung_slide_oscillates_at_sqrt_k_over_m(scheme):
     axis = [np.cos(alpha), 0.0, -np.sin(alpha)]
     m = fd.Model("slide", gravity=[0, 0, -G])
     m.node("b", [0, 0, 0])
-    m.rigid_body("body", "b", mass=mass, inertia=[0.01, 0.02, 0.03])
+    m.body("body", "b", mass=mass, inertia=[0.01, 0.02, 0.03])
     m.prismatic("rail", "ground", "b", axis=axis, spring={"stiffness": k})
     m.sensor("joint_coordinate", "q", joint="rail").sensor("energy", "e")
     s = fd.simulate(m, scheme=scheme, step_control="fixed", dt=1e-3, t_end=1.0)
@@ -147,9 +147,9 @@ def free_cylinder(scheme):
     """A body on a cylindrical joint to a tumbling carrier body: slides and spins freely."""
     m = fd.Model("cylinder")
     m.node("carrier", [0, 0, 0], velocity=[0.1, 0.0, 0.0], angular_velocity=[0.3, 2.0, -1.0])
-    m.rigid_body("carrier_body", "carrier", mass=5.0, inertia=[0.2, 0.3, 0.4])
+    m.body("carrier_body", "carrier", mass=5.0, inertia=[0.2, 0.3, 0.4])
     m.node("sleeve", [0.5, 0.1, 0], velocity=[0.1, 1.0, 0.6], angular_velocity=[0.3, 6.0, -1.0])
-    m.rigid_body("sleeve_body", "sleeve", mass=1.0, inertia=[0.01, 0.02, 0.015], cm_offset=[0.05, 0, 0])
+    m.body("sleeve_body", "sleeve", mass=1.0, inertia=[0.01, 0.02, 0.015], cm_offset=[0.05, 0, 0])
     m.cylindrical(
         "sleeve_joint",
         "carrier",
@@ -182,7 +182,7 @@ def test_cylindrical_joint_never_gains_energy_under_ed():
 
 def test_joint_input_errors_say_what_to_fix():
     m = fd.Model()
-    m.node("a", [0, 0, 0]).rigid_body("ba", "a", mass=1.0, inertia=[1, 1, 1])
+    m.node("a", [0, 0, 0]).body("ba", "a", mass=1.0, inertia=[1, 1, 1])
     m.screw("s1", "ground", "a", axis=[0, 0, 1], pitch=0.0)
     m.screw("s2", "ground", "a", axis=[0, 0, 1], pitch=0.01, drive_phi="t", drive_delta="0.01*t")
     m.cylindrical("c", "ground", "a", axis=[0, 0, 1], drive_phi="t", drive_delta="t")
@@ -209,7 +209,7 @@ def planar_four_bar(last_joint):
     pts = {"a": [0, 0, 0], "b": [0, 1, 0], "c": [2, 1.2, 0], "d": [2, 0, 0]}
     for name, (p, q) in {"crank": ("a", "b"), "coupler": ("b", "c"), "rocker": ("c", "d")}.items():
         mid = [(x + y) / 2 for x, y in zip(pts[p], pts[q])]
-        m.node(name, mid).rigid_body(f"{name}_body", name, mass=1.0, inertia=[0.1, 0.1, 0.1])
+        m.node(name, mid).body(f"{name}_body", name, mass=1.0, inertia=[0.1, 0.1, 0.1])
     m.revolute("ja", "ground", "crank", axis=[0, 0, 1], position=pts["a"])
     m.revolute("jb", "crank", "coupler", axis=[0, 0, 1], position=pts["b"])
     m.revolute("jc", "coupler", "rocker", axis=[0, 0, 1], position=pts["c"])
@@ -241,7 +241,7 @@ def test_an_over_constrained_loop_is_reported_by_its_joints():
 
 def test_a_drive_on_a_locked_coordinate_is_reported():
     m = fd.Model()
-    m.node("a", [1, 0, 0]).rigid_body("b", "a", mass=1.0, inertia=[1, 1, 1])
+    m.node("a", [1, 0, 0]).body("b", "a", mass=1.0, inertia=[1, 1, 1])
     m.prismatic("slide", "ground", "a", axis=[1, 0, 0], drive="0.1*t")
     m.clamp("weld", "ground", "a")
     with pytest.raises(
@@ -261,9 +261,9 @@ def carrier_and_slider(local):
     p_local = np.array([0.3, 0.1, 0.0])
     m = fd.Model("carrier and slider", gravity=[0, 0, -G])
     m.node("c", [0, 0, 0], rotation_vector=rv.tolist(), angular_velocity=[0.5, 1.0, 2.0])
-    m.rigid_body("carrier", "c", mass=3.0, inertia=[0.1, 0.2, 0.3])
+    m.body("carrier", "c", mass=3.0, inertia=[0.1, 0.2, 0.3])
     m.node("p", (rot @ (p_local + [0.2, 0, 0])).tolist())
-    m.rigid_body("pendulum", "p", mass=1.0, inertia=[0.01, 0.02, 0.02])
+    m.body("pendulum", "p", mass=1.0, inertia=[0.01, 0.02, 0.02])
     m.spherical("ball", "ground", "c", position=[0, 0, 0])
     if local:
         m.prismatic(
@@ -298,7 +298,7 @@ def test_joint_geometry_given_in_a_node_triad_matches_the_inertial_one():
 def stiffening_slide(scheme, spring):
     m = fd.Model("stiffening slide")
     m.node("b", [0, 0, 0], velocity=[3.0, 0, 0])
-    m.rigid_body("body", "b", mass=2.0, inertia=[0.01, 0.02, 0.03])
+    m.body("body", "b", mass=2.0, inertia=[0.01, 0.02, 0.03])
     m.prismatic("rail", "ground", "b", axis=[1, 0, 0], spring=spring)
     m.sensor("joint_coordinate", "q", joint="rail").sensor("energy", "e")
     return fd.simulate(m, scheme=scheme, step_control="fixed", dt=2e-3, t_end=2.0)
@@ -337,7 +337,7 @@ def test_a_linear_table_is_the_linear_spring(scheme):
 
 def test_spring_table_errors():
     m = fd.Model()
-    m.node("b", [0, 0, 0]).rigid_body("body", "b", mass=1.0, inertia=[1, 1, 1])
+    m.node("b", [0, 0, 0]).body("body", "b", mass=1.0, inertia=[1, 1, 1])
     m.prismatic(
         "r1",
         "ground",
@@ -361,7 +361,7 @@ def gimbal(scheme, k1=200.0, k2=50.0, c1=0.0, c2=0.0, t_end=2.0, spin=(0.1, 0, 0
     disk) with springs on both rotations, started turning about x and z (`spin`, rad/s)."""
     m = fd.Model("gimbal")
     m.node("disk", [0, 0, 0], velocity=[0, 0, 0], angular_velocity=list(spin))
-    m.rigid_body("disk_body", "disk", mass=5.0, inertia=[0.5, 0.3, 2.0])
+    m.body("disk_body", "disk", mass=5.0, inertia=[0.5, 0.3, 2.0])
     m.universal(
         "gimbal",
         "ground",
@@ -373,7 +373,7 @@ def gimbal(scheme, k1=200.0, k2=50.0, c1=0.0, c2=0.0, t_end=2.0, spin=(0.1, 0, 0
         spring2={"stiffness": k2, "damping": c2},
     )
     m.sensor("joint_coordinate", "g", joint="gimbal").sensor("energy", "e")
-    m.settings(scheme=scheme, step_control="fixed", dt=1e-3, t_end=t_end, newton_tol=1e-12)
+    m.simulation(scheme=scheme, step_control="fixed", dt=1e-3, t_end=t_end, newton_tol=1e-12)
     return m
 
 

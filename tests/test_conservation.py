@@ -13,10 +13,10 @@ J_FREE = np.diag([1.0, 2.0, 3.0])
 def free_body(scheme, dt, t_end):
     m = fd.Model("free body")
     m.node("b", [0, 0, 0], velocity=[0.1, -0.2, 0.05], angular_velocity=[1.0, 0.5, 2.0])
-    m.rigid_body("body", "b", mass=2.0, inertia=J_FREE.tolist())
+    m.body("body", "b", mass=2.0, inertia=J_FREE.tolist())
     m.sensor("energy", "e")
     track(m, "b")
-    m.settings(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end, newton_tol=1e-13)
+    m.simulation(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end, newton_tol=1e-13)
     return m
 
 
@@ -26,11 +26,11 @@ def heavy_top(scheme, dt, t_end):
     omega = np.array([0.0, 150.0, -4.61538])
     m = fd.Model("heavy top", gravity=[0, 0, -9.81])
     m.node("top", [0, 1, 0], angular_velocity=omega, velocity=np.cross(omega, [0, 1, 0]))
-    m.rigid_body("body", "top", mass=15.0, inertia=[0.234375, 0.46875, 0.234375])
+    m.body("body", "top", mass=15.0, inertia=[0.234375, 0.46875, 0.234375])
     m.spherical("pivot", "ground", "top", position=[0, 0, 0])
     m.sensor("energy", "e")
     track(m, "top")
-    m.settings(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end, newton_tol=1e-13)
+    m.simulation(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end, newton_tol=1e-13)
     return m
 
 
@@ -39,13 +39,13 @@ def double_pendulum(scheme, dt, t_end):
     m = fd.Model("spatial double pendulum", gravity=[0, 0, -9.81])
     m.node("b1", [0.5, 0, 0], angular_velocity=[0.0, 0.0, 1.5], velocity=[0, 0.75, 0])
     m.node("b2", [1.0, 0.0, -0.4], rotation_vector=[0, 0.6, 0])
-    m.rigid_body("bar1", "b1", mass=1.0, inertia=[0.002, 0.09, 0.09])
-    m.rigid_body("bar2", "b2", mass=0.8, inertia=[0.06, 0.06, 0.002])
+    m.body("bar1", "b1", mass=1.0, inertia=[0.002, 0.09, 0.09])
+    m.body("bar2", "b2", mass=0.8, inertia=[0.06, 0.06, 0.002])
     m.universal("hip", "ground", "b1", axis1=[0, 0, 1], axis2=[0, 1, 0], position=[0, 0, 0])
     m.revolute("knee", "b1", "b2", axis=[0, 1, 0], position=[1.0, 0, 0])
     m.sensor("energy", "e")
     m.sensor("joint_coordinate", "knee_angle", joint="knee")
-    m.settings(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end, newton_tol=1e-13)
+    m.simulation(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end, newton_tol=1e-13)
     return m
 
 

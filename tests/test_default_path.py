@@ -44,19 +44,19 @@ def spin_up(flexible, t_end=4.0):
     """A hub driven about z by the spin-up, carrying a 10 m arm: a 12 kg mass welded 10 m out,
     or a 4-element flexible blade clamped to the hub."""
     m = fd.Model("spin-up")
-    m.node("hub", [0, 0, 0]).rigid_body("hub_body", "hub", mass=1.0, inertia=[0.1, 0.1, 0.1])
+    m.node("hub", [0, 0, 0]).body("hub_body", "hub", mass=1.0, inertia=[0.1, 0.1, 0.1])
     m.revolute("motor", "ground", "hub", axis=[0, 0, 1], position=[0, 0, 0], drive=SPIN)
     if flexible:
         m.beam("blade", [0, 0, 0], [10, 0, 0], elements=4, section=BLADE, e2=[0, 1, 0])
         m.clamp("root", "hub", "blade.0")
         tip = "blade.12"
     else:
-        m.node("mass", [10, 0, 0]).rigid_body("arm", "mass", mass=12.0, inertia=[0.1, 0.1, 0.1])
+        m.node("mass", [10, 0, 0]).body("arm", "mass", mass=12.0, inertia=[0.1, 0.1, 0.1])
         m.clamp("weld", "hub", "mass")
         tip = "mass"
     m.sensor("node_position", "tip", node=tip).sensor("drive_force", "drive", joint="motor")
     m.sensor("energy", "energy")
-    m.settings(t_end=t_end)  # everything else at its default
+    m.simulation(t_end=t_end)  # everything else at its default
     return m
 
 
@@ -117,7 +117,7 @@ def cantilever(angle_deg, t_end=0.05):
     m.beam("beam", [0, 0, 0], [2.4 * np.cos(a), 2.4 * np.sin(a), 0.0], elements=2, section=BEAM)
     m.clamp("root", "ground", "beam.0")
     m.sensor("node_displacement", "tip", node="beam.6")
-    m.settings(t_end=t_end)
+    m.simulation(t_end=t_end)
     return m
 
 
@@ -146,7 +146,7 @@ def test_a_cantilever_runs_whatever_its_direction(scheme):
 
 def three_bladed_rotor():
     m = fd.Model("three-bladed rotor", gravity=[0, 0, -9.81])
-    m.node("hub", [0, 0, 0]).rigid_body("hub_body", "hub", mass=5.0, inertia=[1.0, 1.0, 1.0])
+    m.node("hub", [0, 0, 0]).body("hub_body", "hub", mass=5.0, inertia=[1.0, 1.0, 1.0])
     m.revolute("shaft", "ground", "hub", axis=[0, 0, 1], position=[0, 0, 0], drive=SPIN)
     for k, azimuth in enumerate((0, 120, 240)):
         a = np.radians(azimuth)
@@ -154,7 +154,7 @@ def three_bladed_rotor():
         m.beam(f"blade{k}", (0.5 * d).tolist(), (5.0 * d).tolist(), elements=3, section=BLADE, e2=[0, 0, 1])
         m.clamp(f"root{k}", "hub", f"blade{k}.0")
         m.sensor("node_displacement", f"tip{k}", node=f"blade{k}.9")
-    m.settings(t_end=2.0)
+    m.simulation(t_end=2.0)
     return m
 
 
@@ -175,12 +175,12 @@ def stiff_pendulum(rest, velocity):
     step to resolve (ω ≈ 7e7 rad/s)."""
     m = fd.Model("stiff pendulum", gravity=[0, 0, -9.81])
     m.node("bob", [1, 0, 0], velocity=velocity)
-    m.rigid_body("ball", "bob", mass=2.0, inertia=[0.01, 0.01, 0.01])
+    m.body("ball", "bob", mass=2.0, inertia=[0.01, 0.01, 0.01])
     m.revolute(
         "pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0], spring={"stiffness": 1e16, "rest": rest}
     )
     m.sensor("node_position", "bob_at", node="bob")
-    m.settings(t_end=0.5, step_control="fixed", dt=0.01)
+    m.simulation(t_end=0.5, step_control="fixed", dt=0.01)
     return m
 
 
@@ -204,7 +204,7 @@ def test_samples_inside_long_steps_are_as_accurate_as_the_step_ends():
     # 10 ms: with states interpolated linearly inside the steps the samples' tip error was
     # 2.5e-3 m against 6e-5 m at the step ends; dense output brings them together.
     model = fd.load(ROOT / "examples" / "beam_pendulum.yaml")
-    model.settings(t_end=1.0)  # the rest at its defaults: ED, adaptive
+    model.simulation(t_end=1.0)  # the rest at its defaults: ED, adaptive
     ref = fd.simulate(model, step_control="fixed", dt=5e-4, output_dt=5e-4)  # error ~1e-6 m
 
     def tip_error(res):
@@ -223,13 +223,13 @@ def test_samples_inside_long_steps_are_as_accurate_as_the_step_ends():
 def pendulum_with_an_undefined_function(where):
     """A pendulum whose drive, or the scale of a force on it, stops being defined at 0.3 s."""
     m = fd.Model("undefined function", gravity=[0, 0, -9.81])
-    m.node("bob", [1, 0, 0]).rigid_body("ball", "bob", mass=1.0, inertia=[0.01, 0.01, 0.01])
+    m.node("bob", [1, 0, 0]).body("ball", "bob", mass=1.0, inertia=[0.01, 0.01, 0.01])
     drive = "sqrt(0.3 - t)" if where == "drive" else None
     m.revolute("pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0], drive=drive)
     if where == "load":
         m.force("push", "bob", [0, 0, 1.0], scale="log(0.3 - t)")
     m.sensor("joint_coordinate", "angle", joint="pin")
-    m.settings(t_end=1.0)
+    m.simulation(t_end=1.0)
     return m
 
 
@@ -259,7 +259,7 @@ def test_beam_sections_between_steps_follow_a_spinning_beam():
     m.beam("bar", [-1.0, 0, 0], [1.0, 0, 0], elements=4, section=BEAM, e2=[0, 1, 0])
     m.initial_spin(["bar"], axis=[0, 0, 1], rate=5.0, center=[0, 0, 0])
     m.sensor("beam_section", "s", beam="bar", eta=0.3)
-    m.settings(t_end=0.5, step_control="fixed", dt=0.05, output_dt=0.01, preload=True)
+    m.simulation(t_end=0.5, step_control="fixed", dt=0.05, output_dt=0.01, preload=True)
     res = fd.simulate(m, scheme="ed")
     t = res["time"].values
     on_grid = np.isclose((t / 0.05) % 1, 0, atol=1e-6) | np.isclose((t / 0.05) % 1, 1, atol=1e-6)

@@ -17,13 +17,13 @@ def spinning_rotor(scheme, dt=0.05, t_end=10.0, k=1e3):
     m = fd.Model("rotor with stiff hinge")
     m.node("hub", [0, 0, 0], angular_velocity=[0, 0, 1.0])
     m.node("tip", [1, 0, 0], angular_velocity=[0, 0, 6.0], velocity=[0, 1.0, 0])
-    m.rigid_body("hub_body", "hub", mass=5.0, inertia=[1.0, 1.0, I_HUB])
-    m.rigid_body("tip_body", "tip", mass=M_TIP, inertia=[0.05, 0.05, I_TIP])
+    m.body("hub_body", "hub", mass=5.0, inertia=[1.0, 1.0, I_HUB])
+    m.body("tip_body", "tip", mass=M_TIP, inertia=[0.05, 0.05, I_TIP])
     m.revolute("bearing", "ground", "hub", axis=[0, 0, 1], position=[0, 0, 0])
     m.revolute("hinge", "hub", "tip", axis=[0, 0, 1], position=[1, 0, 0], spring={"stiffness": k})
     m.sensor("energy", "e").sensor("joint_coordinate", "hinge_angle", joint="hinge")
     track(m, "hub", "tip")
-    m.settings(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end, newton_tol=1e-12)
+    m.simulation(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end, newton_tol=1e-12)
     return m
 
 

@@ -16,7 +16,7 @@ def test_constant_force_and_moment_give_exact_motion(scheme):
     m, jz, force, moment = 2.0, 0.5, np.array([1.0, -2.0, 3.0]), 0.7
     model = fd.Model("loads")
     model.node("b", [0, 0, 0], velocity=[0.1, 0, 0], angular_velocity=[0, 0, 0.2])
-    model.rigid_body("body", "b", mass=m, inertia=[0.3, 0.4, jz])
+    model.body("body", "b", mass=m, inertia=[0.3, 0.4, jz])
     model.force("push", "b", force)
     model.moment("twist", "b", [0, 0, moment], scale=1.0)
     model.sensor("node_position", "p", node="b").sensor("node_velocity", "v", node="b").sensor("energy", "e")
@@ -37,10 +37,10 @@ def heavy_top_model(at_pivot: bool):
     if at_pivot:
         # Node at the pivot, body's centre of mass offset along the node's y axis.
         m.node("top", [0, 0, 0], angular_velocity=omega)
-        m.rigid_body("body", "top", mass=15.0, inertia=[0.234375, 0.46875, 0.234375], cm_offset=[0, 1, 0])
+        m.body("body", "top", mass=15.0, inertia=[0.234375, 0.46875, 0.234375], cm_offset=[0, 1, 0])
     else:
         m.node("top", [0, 1, 0], angular_velocity=omega, velocity=np.cross(omega, [0, 1, 0]))
-        m.rigid_body("body", "top", mass=15.0, inertia=[0.234375, 0.46875, 0.234375])
+        m.body("body", "top", mass=15.0, inertia=[0.234375, 0.46875, 0.234375])
     m.spherical("pivot", "ground", "top", position=[0, 0, 0])
     m.sensor("node_rotation", "rot", node="top").sensor("energy", "e")
     return m
@@ -60,14 +60,14 @@ def test_clamped_halves_move_as_one_rigid_body():
     # about the combined centre of mass (parallel-axis theorem).
     split = fd.Model("split", gravity=[0, 0, -9.81])
     split.node("a", [0.5, 0, 0]).node("b", [1.0, 0, 0])
-    split.rigid_body("half_a", "a", mass=1.0, inertia=[0.001, 0.02, 0.02])
-    split.rigid_body("half_b", "b", mass=1.0, inertia=[0.001, 0.02, 0.02])
+    split.body("half_a", "a", mass=1.0, inertia=[0.001, 0.02, 0.02])
+    split.body("half_b", "b", mass=1.0, inertia=[0.001, 0.02, 0.02])
     split.clamp("weld", "a", "b")
     split.revolute("pin", "ground", "a", axis=[0, 1, 0], position=[0, 0, 0])
     split.sensor("joint_coordinate", "angle", joint="pin")
     whole = fd.Model("whole", gravity=[0, 0, -9.81])
     whole.node("c", [0.75, 0, 0])
-    whole.rigid_body("body", "c", mass=2.0, inertia=[0.002, 0.04 + 2 * 0.25**2, 0.04 + 2 * 0.25**2])
+    whole.body("body", "c", mass=2.0, inertia=[0.002, 0.04 + 2 * 0.25**2, 0.04 + 2 * 0.25**2])
     whole.revolute("pin", "ground", "c", axis=[0, 1, 0], position=[0, 0, 0])
     whole.sensor("joint_coordinate", "angle", joint="pin")
     for scheme in ["ep", "ed"]:
@@ -81,7 +81,7 @@ def test_clamped_halves_move_as_one_rigid_body():
 def test_damper_dissipates_and_the_energy_balance_closes(scheme):
     m = fd.Model("damped", gravity=[0, 0, -9.81])
     m.node("bob", [1, 0, 0])
-    m.rigid_body("ball", "bob", mass=2.0, inertia=[0.01] * 3)
+    m.body("ball", "bob", mass=2.0, inertia=[0.01] * 3)
     m.revolute(
         "pin",
         "ground",
@@ -106,7 +106,7 @@ def test_reaction_is_the_force_that_moves_the_body():
     mass, h = 2.0, 1e-3
     m = fd.Model("pendulum", gravity=[0, 0, -9.81])
     m.node("bob", [1, 0, 0])
-    m.rigid_body("ball", "bob", mass=mass, inertia=[0.01] * 3)
+    m.body("ball", "bob", mass=mass, inertia=[0.01] * 3)
     m.revolute("pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0])
     m.sensor("joint_reaction", "rx", joint="pin")
     track(m, "bob")

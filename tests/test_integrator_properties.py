@@ -15,11 +15,11 @@ def oscillator(scheme, h, t_end, k=100.0, mass=1.0):
     """A mass on a frictionless rail, held by a spring: u(t) = (v₀/ω) sin ωt, ω = √(k/m)."""
     m = fd.Model("oscillator")
     m.node("mass", [0, 0, 0], velocity=[1.0, 0, 0])
-    m.rigid_body("body", "mass", mass=mass, inertia=[1, 1, 1])
+    m.body("body", "mass", mass=mass, inertia=[1, 1, 1])
     m.prismatic("rail", "ground", "mass", axis=[1, 0, 0], spring={"stiffness": k})
     m.sensor("joint_coordinate", "u", joint="rail")
     m.sensor("energy", "E")
-    m.settings(scheme=scheme, dt=h, t_end=t_end, step_control="fixed", newton_tol=1e-13)
+    m.simulation(scheme=scheme, dt=h, t_end=t_end, step_control="fixed", newton_tol=1e-13)
     return m
 
 
@@ -58,7 +58,7 @@ def test_second_order_on_the_heavy_top(scheme):
     # nonlinear problems), against a run with a step 16× smaller than the finest.
     def run(h):
         m = fd.load(ROOT / "examples" / "heavy_top.yaml")
-        m.settings(
+        m.simulation(
             **{
                 **m.data["simulation"],
                 "t_end": 0.5,
@@ -86,7 +86,7 @@ def test_ed_second_order_on_a_flexible_pendulum():
     # shown on the heavy top above.
     def run(h):
         m = fd.load(ROOT / "examples" / "beam_pendulum.yaml")
-        m.settings(scheme="ed", step_control="fixed", dt=h, t_end=0.3, output_dt=0.02, newton_tol=1e-12)
+        m.simulation(scheme="ed", step_control="fixed", dt=h, t_end=0.3, output_dt=0.02, newton_tol=1e-12)
         return np.stack([fd.simulate(m)[f"tip_position.{c}"].values for c in "xyz"], axis=1)
 
     reference = run(2.5e-4)

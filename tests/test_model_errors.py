@@ -82,7 +82,7 @@ def test_all_problems_are_reported_at_once(tmp_path):
 
 def test_builder_errors_match_yaml_errors():
     m = fd.Model()
-    m.node("a", [0, 0, 0]).rigid_body("body", "a", mass=1.0, inertia=[[1, 2, 0], [2, 1, 0], [0, 0, 1]])
+    m.node("a", [0, 0, 0]).body("body", "a", mass=1.0, inertia=[[1, 2, 0], [2, 1, 0], [0, 0, 1]])
     with pytest.raises(
         fd.ModelError, match=r"bodies\[0\]\.inertia: body `body`: inertia must be positive definite"
     ):
@@ -120,7 +120,7 @@ def test_cli_validate_reports_errors(tmp_path):
 
 def test_unconnected_massless_node_is_a_model_error():
     m = fd.Model("loose")
-    m.node("a", [0, 0, 0]).node("b", [1, 0, 0]).rigid_body("body", "a", 1.0, [1, 1, 1])
+    m.node("a", [0, 0, 0]).node("b", [1, 0, 0]).body("body", "a", 1.0, [1, 1, 1])
     with pytest.raises(fd.ModelError, match=r"nodes\[1\]: node `b` carries no body and no joint connects it"):
         fd.simulate(m, t_end=0.01, step_control="fixed", dt=1e-3)
 
@@ -128,7 +128,7 @@ def test_unconnected_massless_node_is_a_model_error():
 def test_undetermined_motion_stops_at_once_naming_the_node():
     # A massless node on a spherical joint: its rotation is free and weightless.
     m = fd.Model("floppy", gravity=[0, 0, -9.81])
-    m.node("a", [0, 0, 0]).node("b", [1, 0, 0]).rigid_body("body", "a", 1.0, [1, 1, 1])
+    m.node("a", [0, 0, 0]).node("b", [1, 0, 0]).body("body", "a", 1.0, [1, 1, 1])
     m.spherical("s", "a", "b")
     with pytest.raises(fd.SolverError, match=r"singular Newton matrix at node `b`") as e:
         fd.simulate(m, t_end=0.01, step_control="fixed", dt=1e-3)

@@ -19,10 +19,10 @@ def spun_up_body(max_halvings=2):
     limit even after halving: the run must stop with a diagnostic."""
     m = fd.Model("spin-up")
     m.node("disk", [0, 0, 0])
-    m.rigid_body("disk_body", "disk", mass=1.0, inertia=[1.0, 1.0, 1.0])
+    m.body("disk_body", "disk", mass=1.0, inertia=[1.0, 1.0, 1.0])
     m.moment("motor", "disk", [0, 0, 100.0], scale="t")
     m.sensor("node_velocity", "disk_vel", node="disk")
-    m.settings(scheme="ed", step_control="fixed", dt=0.01, t_end=10.0, max_step_halvings=max_halvings)
+    m.simulation(scheme="ed", step_control="fixed", dt=0.01, t_end=10.0, max_step_halvings=max_halvings)
     return m
 
 
@@ -107,7 +107,7 @@ def test_cli_run_writes_results(tmp_path):
 def test_cli_run_steps_adaptively_unless_told_to_keep_dt(tmp_path):
     model = tmp_path / "pendulum.yaml"
     double_pendulum("ed", 0.01, 0.5).to_yaml(model)  # the file says step_control: fixed
-    fd.load(model).settings(step_control="adaptive").to_yaml(model)
+    fd.load(model).simulation(step_control="adaptive").to_yaml(model)
     steps = {}
     for flag in ([], ["--fixed-step"]):
         p = subprocess.run(
@@ -140,7 +140,7 @@ def test_inconsistent_given_velocities_are_projected_and_reported():
     m = fd.Model("pendulum", gravity=[0, 0, -9.81])
     # The bob is given a radial velocity component, which the pin does not allow.
     m.node("bob", [1, 0, 0], velocity=[0.3, 0, -2.0])
-    m.rigid_body("ball", "bob", mass=2.0, inertia=[0.01] * 3)
+    m.body("ball", "bob", mass=2.0, inertia=[0.01] * 3)
     m.revolute("pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0])
     m.sensor("node_velocity", "v", node="bob")
     res = fd.simulate(m, scheme="ed", step_control="fixed", dt=1e-3, t_end=0.01)
@@ -178,8 +178,8 @@ def test_unspecified_velocities_follow_the_given_ones():
     m = fd.Model("carried")
     m.node("a", [0, 0, 0], velocity=[1.0, 0, 0], angular_velocity=[0, 0, 2.0])
     m.node("b", [0.5, 0, 0])
-    m.rigid_body("body_a", "a", mass=1.0, inertia=[1, 1, 1])
-    m.rigid_body("body_b", "b", mass=5.0, inertia=[1, 1, 1])
+    m.body("body_a", "a", mass=1.0, inertia=[1, 1, 1])
+    m.body("body_b", "b", mass=5.0, inertia=[1, 1, 1])
     m.clamp("weld", "a", "b")
     m.sensor("node_velocity", "va", node="a").sensor("node_velocity", "vb", node="b")
     res = fd.simulate(m, scheme="ed", step_control="fixed", dt=1e-3, t_end=0.002)
@@ -255,14 +255,14 @@ def test_relative_position_is_measured_in_the_reference_triad():
     m = fd.Model("crank")
     # Triad turned about x so that its axis 3 is the revolute's axis.
     m.node("crank", [1.0, 2.0, 3.0], rotation_vector=[-np.arcsin(0.6), 0, 0])
-    m.rigid_body("crank_body", "crank", mass=2.0, inertia=[0.1, 0.1, 0.2])
+    m.body("crank_body", "crank", mass=2.0, inertia=[0.1, 0.1, 0.2])
     tip = np.array([1.0, 2.0, 3.0]) + 0.5 * np.array([1, 0, 0]) + 0.2 * axis
-    m.node("tip", tip.tolist()).rigid_body("tip_body", "tip", mass=0.5, inertia=[1e-3] * 3)
+    m.node("tip", tip.tolist()).body("tip_body", "tip", mass=0.5, inertia=[1e-3] * 3)
     m.clamp("arm", "crank", "tip")
     m.revolute("pin", "ground", "crank", axis=axis.tolist(), position=[1.0, 2.0, 3.0], drive="3*t")
     m.sensor("relative_position", "rel", node="tip", reference="crank")
     m.sensor("node_position", "abs", node="tip")
-    m.settings(scheme="ed", t_end=1.0, dt=1e-2, step_control="fixed")
+    m.simulation(scheme="ed", t_end=1.0, dt=1e-2, step_control="fixed")
     r = fd.simulate(m)
     for c, value in (("x1", 0.5), ("x2", 0.0), ("x3", 0.2), ("r3", 0.5), ("r1", 0.2)):
         # The clamp holds to Newton's tolerance (~1e-12 m).

@@ -222,9 +222,9 @@ def test_no_panic_reaches_python_as_panic_exception():
 def test_numpy_numbers_and_arrays_are_model_data():
     m = fd.Model("np")
     m.node("a", position=np.array([1.0, 0.0, 0.0]))
-    m.rigid_body("b", "a", mass=np.float32(2.0), inertia=np.full(3, 0.01))
+    m.body("b", "a", mass=np.float32(2.0), inertia=np.full(3, 0.01))
     m.revolute("pin", "ground", "a", axis=np.array([0, 1, 0]), position=np.zeros(3))
-    m.settings(t_end=np.float64(0.05), dt=np.float32(0.01))
+    m.simulation(t_end=np.float64(0.05), dt=np.float32(0.01))
     res = fd.simulate(m, t_end=np.float64(0.05), dt=np.array(0.01))
     assert res.time.values[-1] == pytest.approx(0.05)
     m.beam("rod", start=[0, 0, 0], end=[1, 0, 0], elements=np.int64(2), section=SECTION)

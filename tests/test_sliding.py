@@ -34,6 +34,9 @@ STIFF = {
     "i33": 1e-4,
 }
 
+#: The builder method of each sliding kind (the file's `type:`).
+SLIDING = {"point": "sliding", "screw": "sliding_screw", "clamp": "sliding_clamp"}
+
 
 def free_collar(scheme, order=3, kind="point", t_end=2.0):
     """A 2 kg collar released on a free-floating flexible beam (notes §4.1) with a velocity along
@@ -42,13 +45,13 @@ def free_collar(scheme, order=3, kind="point", t_end=2.0):
     ne = {1: 36, 2: 18, 3: 12}[order]
     m.beam("beam", [0, 0, 0], [2.4, 0, 0], elements=ne, order=order, section=SOFT)
     m.node("collar", [1.2, 0, 0], velocity=[0.6, 1.5, 0.8])
-    m.rigid_body("collar_mass", "collar", mass=2.0, inertia=[0.01, 0.01, 0.01])
-    m.sliding_joint("slider", "beam", "collar", eta=0.5, kind=kind)
+    m.body("collar_mass", "collar", mass=2.0, inertia=[0.01, 0.01, 0.01])
+    getattr(m, SLIDING[kind])("slider", "beam", "collar", eta=0.5)
     m.sensor("energy", "E")
     m.sensor("momentum", "p")
     m.sensor("joint_coordinate", "contact", joint="slider")
     m.sensor("joint_reaction", "r", joint="slider")
-    m.settings(t_end=t_end, step_control="fixed", dt=1e-3, scheme=scheme)
+    m.simulation(t_end=t_end, step_control="fixed", dt=1e-3, scheme=scheme)
     return m
 
 
@@ -99,12 +102,12 @@ def rotating_rod(omega=2.0, r0=0.3, t_end=1.0, scheme="ep", dt=1e-3):
     m.beam("rod", [0, 0, 0], [2.0, 0, 0], elements=8, section=STIFF, angular_velocity=[0, 0, omega])
     m.revolute("hub", "ground", "rod.0", axis=[0, 0, 1], position=[0, 0, 0], drive=f"{omega}*t")
     m.node("bead", [r0, 0, 0], velocity=[0, omega * r0, 0], angular_velocity=[0, 0, omega])
-    m.rigid_body("bead_mass", "bead", mass=0.5, inertia=[1e-4, 1e-4, 1e-4])
-    m.sliding_joint("slider", "rod", "bead")
+    m.body("bead_mass", "bead", mass=0.5, inertia=[1e-4, 1e-4, 1e-4])
+    m.sliding("slider", "rod", "bead")
     m.sensor("joint_coordinate", "contact", joint="slider")
     m.sensor("joint_reaction", "r", joint="slider")
     m.sensor("energy", "E")
-    m.settings(t_end=t_end, step_control="fixed", dt=dt, scheme=scheme)
+    m.simulation(t_end=t_end, step_control="fixed", dt=dt, scheme=scheme)
     return m
 
 
@@ -143,12 +146,12 @@ def driven_collar(scheme="ed", drive="0.5 - 0.25*cos(2*pi*t)", order=3):
     m.beam("track", [0, 0, 0], [2.4, 0, 0], elements=6, order=order, section=STIFF)
     m.clamp("root", "ground", "track.0")
     m.node("collar", [1.2, 0, 0])
-    m.rigid_body("collar_mass", "collar", mass=2.0, inertia=[0.01, 0.01, 0.01])
-    m.sliding_joint("slider", "track", "collar", eta=fd.drive(drive))
+    m.body("collar_mass", "collar", mass=2.0, inertia=[0.01, 0.01, 0.01])
+    m.sliding("slider", "track", "collar", eta=fd.drive(drive))
     m.sensor("drive_force", "push", joint="slider")
     m.sensor("joint_coordinate", "contact", joint="slider")
     m.sensor("energy", "E")
-    m.settings(t_end=1.0, step_control="fixed", dt=1e-3, scheme=scheme)
+    m.simulation(t_end=1.0, step_control="fixed", dt=1e-3, scheme=scheme)
     return m
 
 
@@ -189,11 +192,11 @@ def test_sliding_screw_turns_the_follower_with_the_beams_pretwist():
     m.beam("track", [0, 0, 0], [2.4, 0, 0], elements=12, section=STIFF, twist_rate=k1)
     m.clamp("root", "ground", "track.0")
     m.node("nut", [0.6, 0, 0])
-    m.rigid_body("nut_mass", "nut", mass=2.0, inertia=[0.01, 0.02, 0.02])
-    m.sliding_joint("slider", "track", "nut", eta=fd.drive("0.25 + 0.5*t"), kind="screw")
+    m.body("nut_mass", "nut", mass=2.0, inertia=[0.01, 0.02, 0.02])
+    m.sliding_screw("slider", "track", "nut", eta=fd.drive("0.25 + 0.5*t"))
     m.sensor("node_rotation", "nut_rot", node="nut")
     m.sensor("joint_coordinate", "contact", joint="slider")
-    m.settings(t_end=1.0, step_control="fixed", dt=2e-3, scheme="ed")
+    m.simulation(t_end=1.0, step_control="fixed", dt=2e-3, scheme="ed")
     res = fd.simulate(m)
     s = res["contact.s"].values
     turn = res["nut_rot.x"].values
@@ -232,11 +235,11 @@ def kinked_track(phi, scheme, theta_deg=10.0, v=1.0, h=1e-3):
     for k in range(13):
         m.clamp(f"hold{k}", "ground", f"track.{k}")
     m.node("collar", [x0, 0, 0], velocity=[v, 0, 0])
-    m.rigid_body("collar_mass", "collar", mass=1.0, inertia=[0.01, 0.01, 0.01])
-    m.sliding_joint("slider", "track", "collar")
+    m.body("collar_mass", "collar", mass=1.0, inertia=[0.01, 0.01, 0.01])
+    m.sliding("slider", "track", "collar")
     m.sensor("node_velocity", "vel", node="collar")
     m.sensor("joint_coordinate", "contact", joint="slider")
-    m.settings(t_end=0.12, step_control="fixed", dt=h, scheme=scheme)
+    m.simulation(t_end=0.12, step_control="fixed", dt=h, scheme=scheme)
     return m, th
 
 
@@ -270,11 +273,11 @@ def collar_on_track(scheme, spring=None, end_stops=None, eta=0.6, v=0.0, t_end=1
     m.beam("track", [0, 0, 0], [2.4, 0, 0], elements=6, section=STIFF)
     m.clamp("root", "ground", "track.0")
     m.node("collar", [2.4 * eta, 0, 0], velocity=[v, 0, 0])
-    m.rigid_body("collar_mass", "collar", mass=2.0, inertia=[0.01, 0.01, 0.01])
-    m.sliding_joint("slider", "track", "collar", spring=spring, end_stops=end_stops)
+    m.body("collar_mass", "collar", mass=2.0, inertia=[0.01, 0.01, 0.01])
+    m.sliding("slider", "track", "collar", spring=spring, end_stops=end_stops)
     m.sensor("joint_coordinate", "contact", joint="slider")
     m.sensor("energy", "E")
-    m.settings(t_end=t_end, step_control="fixed", dt=1e-3, scheme=scheme)
+    m.simulation(t_end=t_end, step_control="fixed", dt=1e-3, scheme=scheme)
     return m
 
 
@@ -315,12 +318,12 @@ def test_ed_contact_force_has_no_spikes_at_element_crossings():
     m.beam("beam", [0, 0, 0], [2.4, 0, 0], elements=12, section=BEAM, e2=[0, 1, 0])
     m.clamp("root", "ground", "beam.0")
     m.node("collar", [0.24, 0, 0])
-    m.rigid_body("collar_mass", "collar", mass=10.0, inertia=[0.05, 0.05, 0.05])
-    m.sliding_joint("slider", "beam", "collar", eta=fd.drive("0.1 + 0.8*(t/2 - sin(pi*t)/pi)"))
+    m.body("collar_mass", "collar", mass=10.0, inertia=[0.05, 0.05, 0.05])
+    m.sliding("slider", "beam", "collar", eta=fd.drive("0.1 + 0.8*(t/2 - sin(pi*t)/pi)"))
     m.sensor("joint_reaction", "contact_force", joint="slider")
     m.sensor("joint_coordinate", "contact", joint="slider")
     # Statically loaded (the collar's weight on the beam) before the slide starts.
-    m.settings(t_end=2.0, step_control="fixed", dt=1e-3, scheme="ed", preload=True)
+    m.simulation(t_end=2.0, step_control="fixed", dt=1e-3, scheme="ed", preload=True)
     res = fd.simulate(m)
     force = res["contact_force.F2"].values
     element = np.floor(res["contact.eta"].values * 12 + 1e-9)
@@ -345,11 +348,11 @@ def collar_on_cantilever(kind="point"):
     m.beam("beam", [0, 0, 0], [2.4, 0, 0], elements=6, section=beam, e2=[0, 1, 0])
     m.clamp("root", "ground", "beam.0")
     m.node("collar", [1.2, 0, 0])
-    m.rigid_body("collar_mass", "collar", mass=10.0, inertia=[0.05, 0.05, 0.05])
-    m.sliding_joint("slider", "beam", "collar", eta=fd.drive(0.5), kind=kind)
+    m.body("collar_mass", "collar", mass=10.0, inertia=[0.05, 0.05, 0.05])
+    getattr(m, SLIDING[kind])("slider", "beam", "collar", eta=fd.drive(0.5))
     m.sensor("joint_reaction", "contact_force", joint="slider")
     m.sensor("node_displacement", "u", node="collar")
-    m.settings(analysis="static", load_steps=2)
+    m.simulation(analysis="static", load_steps=2)
     return m
 
 
@@ -384,10 +387,10 @@ def test_sliding_screw_follows_the_elastic_twist(eta):
     m.clamp("root", "ground", "shaft.0")
     m.moment("twist", "shaft.24", [torque, 0, 0])
     m.node("nut", [2.4 * eta, 0, 0])
-    m.rigid_body("nut_mass", "nut", mass=1.0, inertia=[0.01, 0.01, 0.01])
-    m.sliding_joint("screw", "shaft", "nut", eta=fd.drive(eta), kind="screw")
+    m.body("nut_mass", "nut", mass=1.0, inertia=[0.01, 0.01, 0.01])
+    m.sliding_screw("screw", "shaft", "nut", eta=fd.drive(eta))
     m.sensor("node_rotation", "nut_rot", node="nut")
-    m.settings(analysis="static", load_steps=2)
+    m.simulation(analysis="static", load_steps=2)
     res = fd.solve_static(m)
     # Linear twist (a straight shaft under an axial moment): exact up to the interpolated
     # director's error, (k₁ + M/GJ)⁴ h⁴-small for 0.3 m cubic elements.
@@ -399,11 +402,11 @@ def test_beam_slides_through_a_fixed_sleeve():
     # beam launched along its axis keeps its speed, the contact point moving back along it.
     m = fd.Model("telescoping beam")
     m.beam("boom", [-1.2, 0, 0], [1.2, 0, 0], elements=6, section=SOFT, velocity=[0.5, 0, 0])
-    m.sliding_joint("sleeve", "boom", "ground", kind="clamp")
+    m.sliding_clamp("sleeve", "boom", "ground")
     m.sensor("joint_coordinate", "contact", joint="sleeve")
     m.sensor("joint_reaction", "guide", joint="sleeve")
     m.sensor("energy", "E")
-    m.settings(t_end=1.0, step_control="fixed", dt=1e-3, scheme="ep")
+    m.simulation(t_end=1.0, step_control="fixed", dt=1e-3, scheme="ep")
     res = fd.simulate(m)
     t = res["time"].values
     np.testing.assert_allclose(res["contact.eta"].values, 0.5 - 0.5 * t / 2.4, atol=1e-12)

@@ -12,14 +12,14 @@ import flexdyn as fd
 
 def beam_slider_case1(stiffen=1.0):
     m = fd.Model("beam slider, case 1")
-    m.node("tip", [2.4, 0, 0]).rigid_body("tip_body", "tip", mass=40.0, inertia=[0.45, 0.225, 0.225])
+    m.node("tip", [2.4, 0, 0]).body("tip_body", "tip", mass=40.0, inertia=[0.45, 0.225, 0.225])
     section = {**BEAM, **{k: BEAM[k] * stiffen for k in ("ei2", "ei3", "gj")}}
     driver = {**section, "ei2": section["ei3"], "ei3": section["ei2"], "ga2": BEAM["ga3"], "ga3": BEAM["ga2"]}
     m.beam("beam", [0, 0, 0], end_node="tip", elements=12, order=3, section=section, e2=[0, 1, 0])
     m.beam("driver", [0.6, -1.6, 0], [0.6, 0, 0], elements=3, order=3, section=driver, e2=[1, 0, 0])
     m.spherical("R", "ground", "beam.0", position=[0, 0, 0])
     m.revolute("A", "ground", "driver.0", axis=[0, 0, 1], position=[0.6, -1.6, 0])
-    m.sliding_joint("slide", "beam", "driver.9", eta=fd.drive("0.5 - 0.25*cos(2*pi*t)"))
+    m.sliding("slide", "beam", "driver.9", eta=fd.drive("0.5 - 0.25*cos(2*pi*t)"))
     m.sensor("drive_force", "push", joint="slide")
     m.sensor("node_displacement", "tip_u", node="tip")
     return m

@@ -14,8 +14,8 @@ OMEGA = 20.0
 def slider_on_spinning_arm(k=2e4, mass=5.0, r0=1.0):
     """A mass on a radial prismatic joint with a spring, on a hub spun about z."""
     m = fd.Model("mass on a spinning arm")
-    m.node("hub", [0, 0, 0]).rigid_body("hub_body", "hub", mass=10.0, inertia=[1, 1, 1])
-    m.node("slider", [r0, 0, 0]).rigid_body("slider_body", "slider", mass=mass, inertia=[0.01] * 3)
+    m.node("hub", [0, 0, 0]).body("hub_body", "hub", mass=10.0, inertia=[1, 1, 1])
+    m.node("slider", [r0, 0, 0]).body("slider_body", "slider", mass=mass, inertia=[0.01] * 3)
     m.revolute("shaft", "ground", "hub", axis=[0, 0, 1], position=[0, 0, 0], drive=f"{OMEGA}*t")
     m.prismatic("arm", "hub", "slider", axis=[1, 0, 0], spring={"stiffness": k})
     m.initial_spin(["hub", "slider"], axis=[0, 0, 1], rate=OMEGA)
@@ -27,7 +27,7 @@ def slider_on_spinning_arm(k=2e4, mass=5.0, r0=1.0):
 def test_static_solve_of_a_spinning_slider_is_its_relative_equilibrium():
     # k Δ = m Ω² (r0 + Δ): exact for a point mass, so to Newton's tolerance.
     k, mass, r0 = 2e4, 5.0, 1.0
-    res = fd.solve_static(slider_on_spinning_arm(k, mass, r0).settings(analysis="static"))
+    res = fd.solve_static(slider_on_spinning_arm(k, mass, r0).simulation(analysis="static"))
     expected = mass * OMEGA**2 * r0 / (k - mass * OMEGA**2)
     assert res["stretch"].values[-1] == pytest.approx(expected, rel=1e-9)
 
@@ -41,7 +41,7 @@ def test_preloaded_spinning_slider_stays_in_its_relative_equilibrium():
     runs = {}
     for preload in (False, True):
         m = slider_on_spinning_arm(k, mass, r0)
-        m.settings(t_end=0.5, dt=1e-3, scheme="ed", step_control="fixed", preload=preload)
+        m.simulation(t_end=0.5, dt=1e-3, scheme="ed", step_control="fixed", preload=preload)
         runs[preload] = fd.simulate(m)
     assert np.ptp(runs[False]["stretch"].values) > 1.5 * expected
     steady = runs[True]
@@ -61,7 +61,7 @@ def spinning_blade(preload):
     and flap ei3 5e5 N·m²) driven at 20 rad/s about z — with blade 1's tip position."""
     m = rotor(True)
     m.sensor("node_position", "tip", node="blade1.12")
-    m.settings(t_end=0.3, dt=5e-4, scheme="ed", step_control="fixed", preload=preload)
+    m.simulation(t_end=0.3, dt=5e-4, scheme="ed", step_control="fixed", preload=preload)
     return m
 
 
@@ -69,7 +69,7 @@ def test_spinning_beam_stretches_as_the_analytic_rod():
     # Tension N(x) = mΩ²(L² − x²)/2 integrates to a tip stretch mΩ²L³/(3 EA) = 4.27e-5 m. The
     # beam's mass is lumped at its nodes: with 4 cubic elements that moves the stretch by
     # ~0.1 % (measured); 1 % bounds it.
-    res = fd.solve_static(spinning_blade(False).settings(analysis="static"))
+    res = fd.solve_static(spinning_blade(False).simulation(analysis="static"))
     analytic = 8.0 * OMEGA**2 * 2.0**3 / (3 * 2e8)
     assert res["tip.x"].values[-1] - 2.0 == pytest.approx(analytic, rel=1e-2)
 

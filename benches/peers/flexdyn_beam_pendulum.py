@@ -22,7 +22,7 @@ def run(scheme, control, value):
     model = fd.load(EXAMPLE)
     settings = {"scheme": scheme, "step_control": control, "output_dt": SAMPLE}
     settings["dt" if control == "fixed" else "tolerance"] = value
-    model.settings(**settings)
+    model.simulation(**settings)
     t0 = time.process_time()
     res = fd.simulate(model)
     cpu = time.process_time() - t0

@@ -50,7 +50,7 @@ def beam_slider(case: int, twisted: bool = False, elements: int = 12, t_end: flo
     """The beam slider of section 7.1 (or 7.2 when `twisted`), case 1 or 2."""
     title = f"{'twisted ' if twisted else ''}beam slider, case {case}"
     m = fd.Model(title)
-    m.node("tip", [2.4, 0, 0]).rigid_body("tip_body", "tip", mass=40.0, inertia=[0.45, 0.225, 0.225])
+    m.node("tip", [2.4, 0, 0]).body("tip_body", "tip", mass=40.0, inertia=[0.45, 0.225, 0.225])
     twist = {"twist_rate": TWIST} if twisted else {}
     m.beam("beam", [0, 0, 0], end_node="tip", elements=elements, order=3, section=BEAM, e2=[0, 1, 0], **twist)
     m.beam("driver", [0.6, -1.6, 0], [0.6, 0, 0], elements=3, order=3, section=DRIVER, e2=[1, 0, 0])
@@ -58,8 +58,8 @@ def beam_slider(case: int, twisted: bool = False, elements: int = 12, t_end: flo
     m.revolute("A", "ground", "driver.0", axis=[0, 0, 1], position=[0.6, -1.6, 0])
     top = "driver.9"
     if case == 1:
-        kind = "screw" if twisted else "point"
-        m.sliding_joint("slide", "beam", top, eta=fd.drive(ETA), kind=kind)
+        slide = m.sliding_screw if twisted else m.sliding
+        slide("slide", "beam", top, eta=fd.drive(ETA))
         m.sensor("joint_coordinate", "eta", joint="slide", component="eta")
         m.sensor("drive_force", "drive_force", joint="slide", component="force")  # N along the beam
         m.sensor("drive_force", "drive_force_eta", joint="slide", component="force_eta")  # N per unit η
@@ -85,7 +85,7 @@ def beam_slider(case: int, twisted: bool = False, elements: int = 12, t_end: flo
     m.sensor("beam_section", "beam_root_phi1", beam="beam", eta=0.0, component="phi1")
     m.sensor("beam_section", "driver_mid_F1", beam="driver", eta=0.5, component="F1")
     m.sensor("energy", "energy")
-    m.settings(
+    m.simulation(
         scheme="ed",
         t_end=t_end or (3.0 if twisted else 2.0),
         dt=1e-3,

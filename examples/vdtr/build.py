@@ -83,7 +83,7 @@ def vdtr(
     z = hub_height
     # Nacelle tilted about the wing (i2) by φ = 0.25π(1 − sin(2π(t/40 + 0.25))): 0 → 90° in 20 s.
     period = 2 * conversion_time
-    m.node("nacelle", [0, 0, 0]).rigid_body("nacelle_body", "nacelle", mass=200.0, inertia=[20, 20, 20])
+    m.node("nacelle", [0, 0, 0]).body("nacelle_body", "nacelle", mass=200.0, inertia=[20, 20, 20])
     m.revolute(
         "tilt",
         "ground",
@@ -96,18 +96,18 @@ def vdtr(
     m.beam("shaft", [0, 0, 0], [0, 0, z], elements=4 * mesh, section=stiff, e2=[1, 0, 0])
     m.revolute("spin", "nacelle", "shaft.0", axis=[0, 0, 1], position=[0, 0, 0], drive=f"{omega}*t")
     # Gimbal and hub.
-    m.node("hub", [0, 0, z]).rigid_body("hub_body", "hub", mass=50.0, inertia=[5, 5, 8])
+    m.node("hub", [0, 0, z]).body("hub_body", "hub", mass=50.0, inertia=[5, 5, 8])
     spring = {"stiffness": gimbal_stiffness, "damping": gimbal_damping}
     m.universal("gimbal", "shaft.12", "hub", axis1=[1, 0, 0], axis2=[0, 1, 0], spring1=spring, spring2=spring)
     # Swashplate: held on the shaft at a fixed η (sliding screw: it turns with the shaft), and
     # by a second point with a free η.
-    m.node("swash", [0, 0, 0.6 * z]).rigid_body("swash_body", "swash", mass=20.0, inertia=[1, 1, 2])
+    m.node("swash", [0, 0, 0.6 * z]).body("swash_body", "swash", mass=20.0, inertia=[1, 1, 2])
     # (0.45, not 0.5: a contact point resting on an element boundary of the shaft would
     # rebuild the Newton pattern at every tiny oscillation across it.)
     m.node("swash_lower", [0, 0, 0.45 * z])
     m.clamp("swash_rigid", "swash", "swash_lower")
-    m.sliding_joint("swash_screw", "shaft", "swash", eta=fd.drive("0.6"), kind="screw")
-    m.sliding_joint("swash_slide", "shaft", "swash_lower")
+    m.sliding_screw("swash_screw", "shaft", "swash", eta=fd.drive("0.6"))
+    m.sliding("swash_slide", "shaft", "swash_lower")
     rotor = ["shaft", "hub", "swash", "swash_lower"]
     r_lag, r_flap, r_root, r_tube, r_screw, r_nut = 0.15, 0.25, 0.30, 3.20, 2.90, hover_radius - 2.5
     screw_len = r_screw - r_root
@@ -120,10 +120,8 @@ def vdtr(
             return [r * u[0] + ahead * t[0], r * u[1] + ahead * t[1], z + up]
 
         n = f"b{b}"
-        m.node(f"{n}_lag", at(r_lag)).rigid_body(f"{n}_lag_body", f"{n}_lag", mass=0.5, inertia=[1e-3] * 3)
-        m.node(f"{n}_flap", at(r_flap)).rigid_body(
-            f"{n}_flap_body", f"{n}_flap", mass=0.5, inertia=[1e-3] * 3
-        )
+        m.node(f"{n}_lag", at(r_lag)).body(f"{n}_lag_body", f"{n}_lag", mass=0.5, inertia=[1e-3] * 3)
+        m.node(f"{n}_flap", at(r_flap)).body(f"{n}_flap_body", f"{n}_flap", mass=0.5, inertia=[1e-3] * 3)
         m.revolute(
             f"{n}_lag_hinge",
             "hub",
@@ -152,9 +150,9 @@ def vdtr(
         eta0 = (r_nut - r_root) / screw_len
         eta1 = eta0 - retraction / screw_len
         ramp = {"t": [0.0, conversion_time], "value": [eta0, eta1]}  # linear, then held
-        m.sliding_joint(f"{n}_nut", f"{n}_jackscrew", f"{n}_blade.0", eta=fd.drive(ramp), kind="screw")
-        m.sliding_joint(f"{n}_contact1", f"{n}_tube", f"{n}_blade.{2 * mesh}", kind="screw")
-        m.sliding_joint(f"{n}_contact2", f"{n}_tube", f"{n}_blade.{4 * mesh}", kind="screw")
+        m.sliding_screw(f"{n}_nut", f"{n}_jackscrew", f"{n}_blade.0", eta=fd.drive(ramp))
+        m.sliding_screw(f"{n}_contact1", f"{n}_tube", f"{n}_blade.{2 * mesh}")
+        m.sliding_screw(f"{n}_contact2", f"{n}_tube", f"{n}_blade.{4 * mesh}")
         # Pitch horn (on the tube root, ahead of the pitch axis) and pitch link from the
         # swashplate arm below it.
         m.node(f"{n}_horn", at(r_root, ahead=0.15))
@@ -205,7 +203,7 @@ def vdtr(
     m.sensor("energy", "energy")
     # Starts in steady spin: the static pre-load solves the rotor's equilibrium under its
     # centrifugal loads (blades stretched), so the drive holds the spin without a start-up ring.
-    m.settings(
+    m.simulation(
         scheme="ed",
         t_end=t_end,
         dt=1e-3,

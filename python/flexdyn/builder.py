@@ -3,23 +3,49 @@ produces it, Rust validates it (errors name the offending item), and `to_yaml` w
 
     m = Model("pendulum", gravity=[0, 0, -9.81])
     m.node("bob", position=[1, 0, 0])
-    m.rigid_body("ball", node="bob", mass=2.0, inertia=[0.01, 0.01, 0.01])
+    m.body("ball", node="bob", mass=2.0, inertia=[0.01, 0.01, 0.01])
     m.revolute("pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0])
     m.sensor("joint_coordinate", "angle", joint="pin")
+
+Names are the file format's: a method per item, named by its `type:` (joints, loads) or the
+singular of its list (`nodes` → `node`, `bodies` → `body`, `beams` → `beam`,
+`initial_spins` → `initial_spin`), `sensor(type, ...)` for sensors and `simulation(...)` for
+the `simulation:` settings; every keyword argument is the item's YAML key
+(tests/test_builder_names.py holds the builder to the schema).
 """
 
 from __future__ import annotations
 
 import copy
 import json
+import warnings
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, Union
 
 import yaml
 
 from . import _core
 
 GROUND = "ground"
+
+#: A vector of three numbers, m (or m/s, rad/s, … as the key says), inertial frame.
+Vec3 = Sequence[float]
+#: A function of time: a number, an expression of `t` in a string, a table
+#: {"t": [...], "value": [...]}, or a `drive(...)`.
+Function = Union[float, str, Mapping[str, Sequence[float]], "Drive"]
+#: A spring and damper on a coordinate: {"stiffness", "damping", "rest"} or {"table": ...}.
+Spring = Mapping[str, Any]
+#: Where a joint's position and axes are given: the inertial frame or a node's triad.
+Frame = Literal["inertial", "node1", "node2"]
+
+
+def _deprecated(old: str, new: str) -> None:
+    warnings.warn(
+        f"Model.{old} is deprecated: use Model.{new} (the model file's name)",
+        DeprecationWarning,
+        stacklevel=3,
+    )
 
 
 def _plain(v, path: str = ""):
@@ -99,9 +125,18 @@ class Model:
 
     # --- items -------------------------------------------------------------------------
     def node(
-        self, name, position, *, velocity=None, angular_velocity=None, rotation_vector=None, matrix=None
-    ):
-        """A node (point with a triad). Velocities and orientation in the inertial frame."""
+        self,
+        name: str,
+        position: Vec3,
+        *,
+        velocity: Vec3 | None = None,
+        angular_velocity: Vec3 | None = None,
+        rotation_vector: Vec3 | None = None,
+        matrix: Sequence[Vec3] | None = None,
+    ) -> Model:
+        """A node (point with a triad) at `position`, m. Velocities (m/s, rad/s) in the
+        inertial frame; its `orientation:` as a `rotation_vector` (rad) or a `matrix` whose
+        columns are the triad's unit vectors."""
         orientation = _drop_none(
             {
                 "rotation_vector": _vec(rotation_vector) if rotation_vector is not None else None,
@@ -121,9 +156,17 @@ class Model:
         )
         return self
 
-    def rigid_body(self, name, node, mass, inertia, cm_offset=None):
-        """Rigid body on `node`; inertia about the centre of mass in the node's triad:
-        [I11, I22, I33] or a full 3x3 matrix."""
+    def body(
+        self,
+        name: str,
+        node: str,
+        mass: float,
+        inertia: Vec3 | Sequence[Vec3],
+        cm_offset: Vec3 | None = None,
+    ) -> Model:
+        """A rigid body on `node` (an item of `bodies:`): `mass` in kg; `inertia` about the
+        centre of mass in the node's triad, kg·m²: [I11, I22, I33] or a full 3×3 matrix;
+        `cm_offset` from the node, m, node triad."""
         inertia = [_vec(r) for r in inertia] if hasattr(inertia[0], "__len__") else _vec(inertia)
         self.data["bodies"].append(
             _drop_none(
@@ -138,26 +181,31 @@ class Model:
         )
         return self
 
+    def rigid_body(self, name, node, mass, inertia, cm_offset=None) -> Model:
+        """Deprecated spelling of `body` (the file's list is `bodies:`)."""
+        _deprecated("rigid_body", "body")
+        return self.body(name, node, mass, inertia, cm_offset)
+
     def beam(
         self,
-        name,
-        start=None,
-        end=None,
+        name: str,
+        start: Vec3 | None = None,
+        end: Vec3 | None = None,
         *,
-        elements,
-        section=None,
-        sections=None,
-        order=3,
-        e2=None,
-        twist_rate=0.0,
-        twist=None,
-        arc=None,
-        via=None,
-        start_node=None,
-        end_node=None,
-        velocity=None,
-        angular_velocity=None,
-    ):
+        elements: int,
+        section: Mapping[str, Any] | None = None,
+        sections: Sequence[Mapping[str, Any]] | None = None,
+        order: int = 3,
+        e2: Vec3 | None = None,
+        twist_rate: float = 0.0,
+        twist: Mapping[str, Sequence[float]] | None = None,
+        arc: Mapping[str, Any] | None = None,
+        via: Sequence[Vec3] | None = None,
+        start_node: str | None = None,
+        end_node: str | None = None,
+        velocity: Vec3 | None = None,
+        angular_velocity: Vec3 | None = None,
+    ) -> Model:
         """A geometrically exact beam from `start` to `end` (or shared `start_node` /
         `end_node`), meshed with `elements` elements of `order` 1, 2 or 3; its nodes are named
         `<name>.0` ... `<name>.N`.
@@ -170,9 +218,7 @@ class Model:
         - Pre-twist: `twist_rate` (rad/m) or `twist={"eta": [...], "angle": [...]}` (rad).
         - `e2`: the section's axis 2 at the start (projected normal to the beam).
         """
-
         num = _vec
-
         self.data["beams"].append(
             _drop_none(
                 {
@@ -199,25 +245,33 @@ class Model:
         )
         return self
 
-    def _joint(self, kind, name, node1, node2, **fields):
+    def _joint(self, kind: str, name: str, node1: str, node2: str, **fields) -> Model:
         """Joints: `position` and axes are inertial, or with frame="node1"/"node2" given in
         that node's initial triad (position relative to the node)."""
+        fields = {k: _vec(v) if isinstance(v, (tuple, list)) else v for k, v in fields.items()}
+        fields = {k: dict(v) if isinstance(v, Mapping) else v for k, v in fields.items()}
         self.data["joints"].append(
             _drop_none({"type": kind, "name": name, "node1": node1, "node2": node2, **copy.deepcopy(fields)})
         )
         return self
 
-    def spherical(self, name, node1, node2, position=None, frame=None):
-        return self._joint(
-            "spherical",
-            name,
-            node1,
-            node2,
-            position=_vec(position) if position is not None else None,
-            frame=frame,
-        )
+    def spherical(
+        self, name: str, node1: str, node2: str, position: Vec3 | None = None, frame: Frame | None = None
+    ) -> Model:
+        """Spherical joint: the nodes share a point (`position`, default node2's)."""
+        return self._joint("spherical", name, node1, node2, position=position, frame=frame)
 
-    def revolute(self, name, node1, node2, axis, position=None, drive=None, spring=None, frame=None):
+    def revolute(
+        self,
+        name: str,
+        node1: str,
+        node2: str,
+        axis: Vec3,
+        position: Vec3 | None = None,
+        drive: Function | None = None,
+        spring: Spring | None = None,
+        frame: Frame | None = None,
+    ) -> Model:
         """Revolute joint about `axis`; `drive` prescribes φ(t) (number, expression of t, or
         {"t": [...], "value": [...]}); `spring` = {"stiffness", "damping", "rest"}."""
         return self._joint(
@@ -225,14 +279,24 @@ class Model:
             name,
             node1,
             node2,
-            axis=_vec(axis),
-            position=_vec(position) if position is not None else None,
+            axis=axis,
+            position=position,
             drive=drive,
-            spring=dict(spring) if spring is not None else None,
+            spring=spring,
             frame=frame,
         )
 
-    def prismatic(self, name, node1, node2, axis, position=None, drive=None, spring=None, frame=None):
+    def prismatic(
+        self,
+        name: str,
+        node1: str,
+        node2: str,
+        axis: Vec3,
+        position: Vec3 | None = None,
+        drive: Function | None = None,
+        spring: Spring | None = None,
+        frame: Frame | None = None,
+    ) -> Model:
         """Prismatic joint: identical orientations, node2 slides by Δ along `axis`; `drive`
         prescribes Δ(t) (m), `spring` acts on Δ (N/m, N·s/m)."""
         return self._joint(
@@ -240,26 +304,26 @@ class Model:
             name,
             node1,
             node2,
-            axis=_vec(axis),
-            position=_vec(position) if position is not None else None,
+            axis=axis,
+            position=position,
             drive=drive,
-            spring=dict(spring) if spring is not None else None,
+            spring=spring,
             frame=frame,
         )
 
     def cylindrical(
         self,
-        name,
-        node1,
-        node2,
-        axis,
-        position=None,
-        drive_delta=None,
-        spring_delta=None,
-        drive_phi=None,
-        spring_phi=None,
-        frame=None,
-    ):
+        name: str,
+        node1: str,
+        node2: str,
+        axis: Vec3,
+        position: Vec3 | None = None,
+        drive_delta: Function | None = None,
+        spring_delta: Spring | None = None,
+        drive_phi: Function | None = None,
+        spring_phi: Spring | None = None,
+        frame: Frame | None = None,
+    ) -> Model:
         """Cylindrical joint: slides by Δ along and turns by φ about `axis`; drives and
         springs on either."""
         return self._joint(
@@ -267,29 +331,29 @@ class Model:
             name,
             node1,
             node2,
-            axis=_vec(axis),
-            position=_vec(position) if position is not None else None,
+            axis=axis,
+            position=position,
             drive_delta=drive_delta,
-            spring_delta=dict(spring_delta) if spring_delta is not None else None,
+            spring_delta=spring_delta,
             drive_phi=drive_phi,
-            spring_phi=dict(spring_phi) if spring_phi is not None else None,
+            spring_phi=spring_phi,
             frame=frame,
         )
 
     def screw(
         self,
-        name,
-        node1,
-        node2,
-        axis,
-        pitch,
-        position=None,
-        drive_delta=None,
-        spring_delta=None,
-        drive_phi=None,
-        spring_phi=None,
-        frame=None,
-    ):
+        name: str,
+        node1: str,
+        node2: str,
+        axis: Vec3,
+        pitch: float,
+        position: Vec3 | None = None,
+        drive_delta: Function | None = None,
+        spring_delta: Spring | None = None,
+        drive_phi: Function | None = None,
+        spring_phi: Spring | None = None,
+        frame: Frame | None = None,
+    ) -> Model:
         """Screw joint: a cylindrical joint with Δ = pitch·φ (`pitch` in m/rad); drive one of
         Δ and φ."""
         return self._joint(
@@ -297,30 +361,30 @@ class Model:
             name,
             node1,
             node2,
-            axis=_vec(axis),
+            axis=axis,
             pitch=pitch,
-            position=_vec(position) if position is not None else None,
+            position=position,
             drive_delta=drive_delta,
-            spring_delta=dict(spring_delta) if spring_delta is not None else None,
+            spring_delta=spring_delta,
             drive_phi=drive_phi,
-            spring_phi=dict(spring_phi) if spring_phi is not None else None,
+            spring_phi=spring_phi,
             frame=frame,
         )
 
     def universal(
         self,
-        name,
-        node1,
-        node2,
-        axis1,
-        axis2,
-        position=None,
-        frame=None,
-        spring1=None,
-        spring2=None,
-        drive1=None,
-        drive2=None,
-    ):
+        name: str,
+        node1: str,
+        node2: str,
+        axis1: Vec3,
+        axis2: Vec3,
+        position: Vec3 | None = None,
+        frame: Frame | None = None,
+        spring1: Spring | None = None,
+        spring2: Spring | None = None,
+        drive1: Function | None = None,
+        drive2: Function | None = None,
+    ) -> Model:
         """A universal joint (a gimbal): `axis1` fixed to node1, `axis2` to node2. Its rotations
         φ1 (the cross about axis1) and φ2 (node2 about axis2) take springs/dampers
         (`spring1={"stiffness": k, "damping": c}`) and drives like a revolute's φ."""
@@ -329,9 +393,9 @@ class Model:
             name,
             node1,
             node2,
-            axis1=_vec(axis1),
-            axis2=_vec(axis2),
-            position=_vec(position) if position is not None else None,
+            axis1=axis1,
+            axis2=axis2,
+            position=position,
             frame=frame,
             spring1=spring1,
             spring2=spring2,
@@ -339,86 +403,178 @@ class Model:
             drive2=drive2,
         )
 
-    def clamp(self, name, node1, node2):
+    def clamp(self, name: str, node1: str, node2: str) -> Model:
+        """Clamp: the two nodes move as one body, as placed initially."""
         return self._joint("clamp", name, node1, node2)
 
-    def sliding_joint(self, name, beam, follower, eta=None, spring=None, kind="point", end_stops=None):
-        """The follower node stays in contact with `beam` at a moving point η = s/L.
+    def sliding(
+        self,
+        name: str,
+        beam: str,
+        follower: str,
+        eta: float | Drive | None = None,
+        drive: Function | None = None,
+        spring: Spring | None = None,
+        end_stops: Mapping[str, float] | None = None,
+    ) -> Model:
+        """Sliding joint: the `follower` node stays in contact with `beam` at a moving point
+        η = s/L, turning freely.
 
-        - `eta`: the initial η (a number; default: the beam point closest to the follower),
-          or `drive(...)` to prescribe η(t) — its multiplier is the driving force along the
-          beam. Without a drive the contact point slides freely (no friction).
+        - `eta`: the initial η (default: the beam point closest to the follower); or
+          `drive` (or `eta=drive(...)`) prescribes η(t) — its multiplier is the driving force
+          along the beam. Without a drive the contact point slides freely (no friction).
         - `spring`: {"stiffness": N/m, "damping": N·s/m, "rest": η} along the beam.
-        - `kind`: "point" (sliding joint: the point stays on the beam, the follower turns
-          freely), "screw" (sliding screw joint: the follower also turns with the beam's section
-          about its axis — pre-twist and elastic twist), or "clamp" (a sleeve: the follower
-          keeps its orientation relative to the section).
         - `follower` may be "ground": a fixed guide the beam slides through.
         - `end_stops`: {"stiffness": N/m}: elastic stops at the beam's ends (else a free contact
           point reaching an end stops the run with a message).
         """
+        return self._sliding("sliding", name, beam, follower, eta, drive, spring, end_stops)
+
+    def sliding_screw(
+        self,
+        name: str,
+        beam: str,
+        follower: str,
+        eta: float | Drive | None = None,
+        drive: Function | None = None,
+        spring: Spring | None = None,
+        end_stops: Mapping[str, float] | None = None,
+    ) -> Model:
+        """Sliding screw joint: a sliding joint whose follower also turns with the beam's
+        section about its axis (pre-twist and elastic twist). Arguments as `sliding`."""
+        return self._sliding("sliding_screw", name, beam, follower, eta, drive, spring, end_stops)
+
+    def sliding_clamp(
+        self,
+        name: str,
+        beam: str,
+        follower: str,
+        eta: float | Drive | None = None,
+        drive: Function | None = None,
+        spring: Spring | None = None,
+        end_stops: Mapping[str, float] | None = None,
+    ) -> Model:
+        """Sliding clamp (a sleeve): the follower keeps its orientation relative to the
+        section as it slides. Arguments as `sliding`."""
+        return self._sliding("sliding_clamp", name, beam, follower, eta, drive, spring, end_stops)
+
+    def _sliding(self, kind, name, beam, follower, eta, drive, spring, end_stops) -> Model:
+        if isinstance(eta, Drive):
+            if drive is not None:
+                raise ValueError(
+                    f"sliding joint `{name}`: give the drive once (`drive=` or `eta=drive(...)`)"
+                )
+            eta, drive = None, eta
+        fields = {"type": kind, "name": name, "beam": beam, "follower": follower, "eta": eta}
+        fields["drive"] = drive.function if isinstance(drive, Drive) else drive
+        fields["spring"] = dict(spring) if spring is not None else None
+        fields["end_stops"] = dict(end_stops) if end_stops is not None else None
+        self.data["joints"].append(_drop_none(copy.deepcopy(fields)))
+        return self
+
+    def sliding_joint(
+        self, name, beam, follower, eta=None, spring=None, kind="point", end_stops=None
+    ) -> Model:
+        """Deprecated: use `sliding`, `sliding_screw` or `sliding_clamp` (the file's `type:`)."""
         if kind not in _SLIDING_TYPES:
             raise ValueError(
                 f"sliding joint `{name}`: kind must be one of {sorted(_SLIDING_TYPES)} (got {kind!r})"
             )
-        fields = {"type": _SLIDING_TYPES[kind], "name": name, "beam": beam, "follower": follower}
-        if isinstance(eta, Drive):
-            fields["drive"] = eta.function
-        elif eta is not None:
-            fields["eta"] = eta
-        if spring is not None:
-            fields["spring"] = dict(spring)
-        if end_stops is not None:
-            fields["end_stops"] = dict(end_stops)
-        self.data["joints"].append(fields)
-        return self
+        _deprecated("sliding_joint(kind=...)", _SLIDING_TYPES[kind])
+        return self._sliding(_SLIDING_TYPES[kind], name, beam, follower, eta, None, spring, end_stops)
 
-    def initial_spin(self, items, axis, rate, center=(0.0, 0.0, 0.0)):
-        """Start the listed nodes and beams (all their nodes) turning together at `rate` rad/s
-        about `axis` through `center`: v = ω × (x − center), angular velocity ω."""
+    def initial_spin(
+        self, items: Sequence[str], axis: Vec3, rate: float, center: Vec3 = (0.0, 0.0, 0.0)
+    ) -> Model:
+        """An item of `initial_spins:`: start the listed nodes and beams (all their nodes)
+        turning together at `rate` rad/s about the unit `axis` through `center`:
+        v = ω × (x − center), angular velocity ω."""
         self.data.setdefault("initial_spins", []).append(
             {"axis": _vec(axis), "rate": rate, "center": _vec(center), "items": list(items)}
         )
         return self
 
-    def force(self, name, node, value, scale=None, follower=False):
+    def force(
+        self, name: str, node: str, value: Vec3, scale: Function | None = None, follower: bool = False
+    ) -> Model:
         """Point force, N, times an optional function of time: dead (inertial frame) or, with
         follower=True, given in the node's triad and turning with it."""
         return self._load("force", name, node=node, value=value, scale=scale, follower=follower)
 
-    def moment(self, name, node, value, scale=None, follower=False):
+    def moment(
+        self, name: str, node: str, value: Vec3, scale: Function | None = None, follower: bool = False
+    ) -> Model:
         """Point moment, N·m: dead (inertial frame) or follower (node's triad)."""
         return self._load("moment", name, node=node, value=value, scale=scale, follower=follower)
 
-    def distributed_force(self, name, beam, value, scale=None, follower=False):
+    def distributed_force(
+        self, name: str, beam: str, value: Vec3, scale: Function | None = None, follower: bool = False
+    ) -> Model:
         """Force per unit length along a whole beam, N/m: dead (inertial frame) or follower
         (section frame, axis 1 along the beam), lumped consistently to the beam's nodes."""
         return self._load("distributed_force", name, beam=beam, value=value, scale=scale, follower=follower)
 
-    def distributed_moment(self, name, beam, value, scale=None, follower=False):
+    def distributed_moment(
+        self, name: str, beam: str, value: Vec3, scale: Function | None = None, follower: bool = False
+    ) -> Model:
         """Moment per unit length along a whole beam, N·m/m (dead or follower)."""
         return self._load("distributed_moment", name, beam=beam, value=value, scale=scale, follower=follower)
 
-    def _load(self, kind, name, *, value, scale, follower, **target):
+    def _load(self, kind, name, *, value, scale, follower, **target) -> Model:
         item = {"type": kind, "name": name, **target, "value": _vec(value), "scale": scale}
         if follower:
             item["follower"] = True
         self.data["loads"].append(_drop_none(item))
         return self
 
-    def sensor(self, kind, name, **fields):
-        """A sensor: node_position, node_displacement, node_rotation, node_velocity (node=...),
-        joint_coordinate, joint_reaction, drive_force (joint=...), energy."""
-        self.data["sensors"].append({"type": kind, "name": name, **copy.deepcopy(fields)})
+    def sensor(self, type: str | None = None, name: str | None = None, **fields) -> Model:
+        """A sensor of `type` (its `type:` in the file), its other keys as keyword arguments:
+        node_position, node_displacement, node_rotation, node_velocity (node=...);
+        relative_position (node=..., reference=...); joint_coordinate, joint_reaction,
+        drive_force (joint=..., coordinate=...); beam_section (beam=..., eta=... or s=...),
+        beam_energy (beam=...); energy; momentum. `component=` keeps one channel."""
+        if "kind" in fields:
+            _deprecated("sensor(kind=...)", "sensor(type=...)")
+            type = fields.pop("kind")
+        self.data["sensors"].append({"type": type, "name": name, **copy.deepcopy(fields)})
         return self
 
-    def settings(self, **fields):
-        """Simulation settings: analysis ("dynamic"/"static"), load_steps, scheme ("ep"/"ed"),
-        t_end, dt, output_dt, newton_tol, newton_increment_tol, max_newton_iterations,
-        max_step_halvings; step_control ("adaptive", the default, or "fixed"), tolerance, dt_min, dt_max, max_growth, max_shrink;
-        preload (start a dynamic run from the static equilibrium at t = 0), modified_newton."""
-        self.data["simulation"].update(copy.deepcopy(fields))
+    def simulation(
+        self,
+        *,
+        analysis: Literal["dynamic", "static"] | None = None,
+        scheme: Literal["ep", "ed"] | None = None,
+        t_end: float | None = None,
+        dt: float | None = None,
+        output_dt: float | None = None,
+        step_control: Literal["adaptive", "fixed"] | None = None,
+        tolerance: float | None = None,
+        dt_min: float | None = None,
+        dt_max: float | None = None,
+        max_growth: float | None = None,
+        max_shrink: float | None = None,
+        max_step_halvings: int | None = None,
+        newton_tol: float | None = None,
+        newton_increment_tol: float | None = None,
+        max_newton_iterations: int | None = None,
+        modified_newton: bool | None = None,
+        load_steps: int | None = None,
+        preload: bool | None = None,
+    ) -> Model:
+        """The `simulation:` settings (those given; the rest keep their defaults): analysis,
+        scheme ("ed", the default, or "ep"), t_end and dt (s), output_dt (s); step_control
+        ("adaptive", the default, or "fixed") with tolerance (m), dt_min, dt_max, max_growth,
+        max_shrink, max_step_halvings; Newton's newton_tol, newton_increment_tol,
+        max_newton_iterations, modified_newton; load_steps (static); preload (start a dynamic
+        run from the static equilibrium at t = 0)."""
+        given = {k: v for k, v in locals().items() if k != "self" and v is not None}
+        self.data["simulation"].update(copy.deepcopy(given))
         return self
+
+    def settings(self, **fields) -> Model:
+        """Deprecated spelling of `simulation` (the file's key is `simulation:`)."""
+        _deprecated("settings", "simulation")
+        return self.simulation(**fields)
 
     # --- conversion ------------------------------------------------------------------
     def to_dict(self) -> dict:
