@@ -121,6 +121,8 @@ fn schema() -> String {
     model::json_schema()
 }
 
+/// A compiled model being simulated: advance it in time (or load steps), read its samples,
+/// linearize it. Built from the model's JSON by `flexdyn.simulate` / `solve_static`.
 #[pyclass(name = "Simulation", module = "flexdyn._core", unsendable)]
 struct PySimulation {
     sim: Simulation,
@@ -238,11 +240,13 @@ impl PySimulation {
         ))
     }
 
+    /// Whether this is a static analysis (load steps instead of time).
     #[getter]
     fn is_static(&self) -> bool {
         self.sim.is_static()
     }
 
+    /// Static analysis: the fraction of the loads applied so far (0 to 1).
     #[getter]
     fn load_factor(&self) -> f64 {
         self.sim.load_factor()
@@ -271,10 +275,12 @@ impl PySimulation {
         Ok((times, values))
     }
 
+    /// The output channels, `<sensor>.<component>`, in sample order.
     #[getter]
     fn channel_names(&self) -> Vec<String> {
         self.sim.channels.names.clone()
     }
+    /// Each channel's SI unit, in the order of `channel_names`.
     #[getter]
     fn channel_units(&self) -> Vec<String> {
         self.sim
@@ -284,6 +290,7 @@ impl PySimulation {
             .map(|s| s.to_string())
             .collect()
     }
+    /// Time reached, s.
     #[getter]
     fn t(&self) -> f64 {
         self.sim.state.t
@@ -307,10 +314,12 @@ impl PySimulation {
     fn last_dt(&self) -> f64 {
         self.sim.stats.last_dt
     }
+    /// End time of the run, s.
     #[getter]
     fn t_end(&self) -> f64 {
         self.sim.settings.t_end
     }
+    /// The initial (fixed: the) step size, s.
     #[getter]
     fn dt(&self) -> f64 {
         self.sim.settings.dt
@@ -328,6 +337,7 @@ impl PySimulation {
             StepControl::Fixed => "fixed",
         }
     }
+    /// `ep` (energy preserving) or `ed` (energy decaying).
     #[getter]
     fn scheme(&self) -> &'static str {
         match self.sim.system.layout.scheme {
@@ -335,14 +345,17 @@ impl PySimulation {
             Scheme::Ed => "ed",
         }
     }
+    /// Whether the run reached its end.
     #[getter]
     fn done(&self) -> bool {
         self.sim.done()
     }
+    /// Warnings raised so far (each once), for the user.
     #[getter]
     fn warnings(&self) -> Vec<String> {
         self.sim.warnings.clone()
     }
+    /// Total energy of the current state (kinetic, strain, springs, gravity), J.
     #[getter]
     fn energy(&self) -> f64 {
         self.sim.energy()
@@ -384,6 +397,8 @@ impl PySimulation {
     }
 }
 
+/// flexdyn's compiled core: model parsing and validation, the JSON Schema, and `Simulation`.
+/// Use it through the `flexdyn` package.
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(parse_yaml, m)?)?;

@@ -49,3 +49,16 @@ def test_package_is_typed_and_the_core_stub_matches_the_compiled_module():
     members = _stub_names(cls) - {"__init__"}
     compiled = {n for n in dir(_core.Simulation) if not n.startswith("__")}
     assert members == compiled, f"stub only: {members - compiled}; module only: {compiled - members}"
+
+
+def test_the_compiled_module_documents_everything_it_exports():
+    undocumented = [
+        n for n in ("parse_json", "parse_yaml", "schema", "Simulation") if not getattr(_core, n).__doc__
+    ]
+    if not (_core.__doc__ or "").strip():
+        undocumented.append("_core")
+    for name in dir(_core.Simulation):
+        member = getattr(_core.Simulation, name)
+        if not name.startswith("_") and not (member.__doc__ or "").strip():
+            undocumented.append(f"Simulation.{name}")
+    assert not undocumented, f"no docstring: {undocumented}"
