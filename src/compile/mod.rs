@@ -26,7 +26,7 @@ use crate::math::layout::{Layout, Scheme};
 use crate::math::vec3::{M3, V3};
 use crate::model::check::{Checker, NodeNames};
 use crate::model::{Model, ModelError, ModelErrors};
-use crate::state::State;
+use crate::state::{NodeState, State};
 use crate::system::System;
 use bodies::CmLink;
 use nodes::NodeTable;
@@ -78,65 +78,95 @@ pub fn system(model: &Model) -> Result<System, ModelErrors> {
 pub fn compile(model: &Model, scheme: Scheme) -> Result<System, ModelErrors> {
     validate(model)?;
     let one = |e: ModelError| ModelErrors::one(e);
+    let placed = place(model).map_err(one)?;
+    let rows = number_rows(model, &placed).map_err(one)?;
+    assemble(model, scheme, placed, rows).map_err(one)
+}
+
+/// Every node with its initial state and inertia, and the beams meshed on them.
+struct Placed {
+    table: NodeTable,
+    meshed: Vec<beams::Meshed>,
+    links: Vec<CmLink>,
+    beam_info: Vec<crate::system::BeamInfo>,
+}
+
+fn place(model: &Model) -> Result<Placed, ModelError> {
     let mut table = NodeTable::of(model);
-    let mut meshed = beams::mesh_all(model, &mut table);
+    let meshed = beams::mesh_all(model, &mut table);
     let beam_nodes: Vec<&[usize]> = meshed.iter().map(|m| m.mesh.nodes.as_slice()).collect();
     spins::apply(model, &beam_nodes, &mut table);
     let mut links = bodies::add(model, &mut table);
     bodies::centre_offset_masses(&mut table, &mut links);
-    nodes::check_determined(model, &table, &links).map_err(one)?;
+    nodes::check_determined(model, &table, &links)?;
     let beam_info = beams::info(model, &meshed);
+    Ok(Placed {
+        table,
+        meshed,
+        links,
+        beam_info,
+    })
+}
 
+/// The centre-of-mass links, then the joints in file order.
+fn number_rows(model: &Model, placed: &Placed) -> Result<RowTable, ModelError> {
     let mut rows = RowTable::default();
-    for link in &links {
+    for link in &placed.links {
         cm_link(link, &mut rows);
     }
     for (i, j) in model.joints.iter().enumerate() {
         let path = format!("joints[{i}]");
         match j.sliding() {
-            Some(_) => sliding::compile(j, &path, &table, &beam_info, &mut rows),
-            None => joints::compile(j, &path, &table, &mut rows),
+            Some(_) => sliding::compile(j, &path, &placed.table, &placed.beam_info, &mut rows)?,
+            None => joints::compile(j, &path, &placed.table, &mut rows)?,
         }
-        .map_err(one)?;
     }
+    Ok(rows)
+}
+
+/// The kernels on the layout the counts fix, and the system around them.
+fn assemble(
+    model: &Model,
+    scheme: Scheme,
+    mut placed: Placed,
+    mut rows: RowTable,
+) -> Result<System, ModelError> {
+    let table = &placed.table;
     let layout = Layout::new(
         scheme,
         table.states.len(),
         rows.coords0.len(),
         rows.n_rows(),
     );
-    let (beams, history) = beams::elements(&mut meshed, &layout);
+    let (beams, history) = beams::elements(&mut placed.meshed, &layout);
     let targets = loads::Targets {
-        nodes: &table,
-        meshed: &meshed,
-        beam_info: &beam_info,
+        nodes: table,
+        meshed: &placed.meshed,
+        beam_info: &placed.beam_info,
         elements: &beams,
     };
-    let loads = loads::compile(model, &targets, &layout).map_err(one)?;
+    let loads = loads::compile(model, &targets, &layout)?;
     let kernels = rows.build(&layout);
-    let inertias = inertias(&table, &layout);
-    let initial = State {
-        t: 0.0,
-        nodes: table.states.clone(),
-        coords: rows.coords0.clone(),
-        coord_rates: vec![0.0; rows.coords0.len()],
-        lambda: vec![0.0; layout.n_rows],
-        history,
-    };
-    let scales = Scales::of(&table, &beams, &kernels.springs, &rows.coords0);
+    let scales = Scales::of(table, &beams, &kernels.springs, &rows.coords0);
     let mut cm_node = vec![None; table.states.len()];
-    for l in &links {
+    for l in &placed.links {
         cm_node[l.node] = Some((l.cm, l.offset));
     }
     Ok(System {
         name: model.name.clone(),
+        inertias: inertias(table, &layout),
+        initial: initial_state(
+            table.states.clone(),
+            rows.coords0.clone(),
+            layout.n_rows,
+            history,
+        ),
         layout,
-        node_names: table.names,
+        node_names: placed.table.names,
         coord_names: rows.coord_names,
         row_names: kernels.row_names,
-        inertias,
         beams,
-        beam_info,
+        beam_info: placed.beam_info,
         joints: kernels.joints,
         joint_info: rows.joint_info,
         springs: kernels.springs,
@@ -148,12 +178,29 @@ pub fn compile(model: &Model, scheme: Scheme) -> Result<System, ModelErrors> {
         length_ref: scales.length,
         force_ref: scales.force,
         force_roundoff: scales.force_roundoff,
-        velocity_given: table.velocity_given,
-        node_spin: table.spin,
+        velocity_given: placed.table.velocity_given,
+        node_spin: placed.table.spin,
         load_scales: loads.scales,
         cm_node,
-        initial,
     })
+}
+
+/// The initial state: the nodes' and coordinates' values at t = 0, coordinate rates and
+/// multipliers zero.
+fn initial_state(
+    nodes: Vec<NodeState>,
+    coords: Vec<f64>,
+    n_rows: usize,
+    history: Vec<f64>,
+) -> State {
+    State {
+        t: 0.0,
+        nodes,
+        coord_rates: vec![0.0; coords.len()],
+        coords,
+        lambda: vec![0.0; n_rows],
+        history,
+    }
 }
 
 /// The system's reference sizes, for scalings and tolerances.
