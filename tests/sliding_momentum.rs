@@ -24,7 +24,7 @@ fn angular_momentum_changes_by_the_predicted_defect_of_eq_33() {
     let mut worst = 0.0f64;
     let mut largest_defect = 0.0f64;
     let mut h_scale = 0.0f64;
-    for k in 1..=400 {
+    for k in 1..=2000 {
         let si = sim.state.clone();
         sim.advance_to(k as f64 * h).unwrap();
         let sf = sim.state.clone();
@@ -50,9 +50,11 @@ fn angular_momentum_changes_by_the_predicted_defect_of_eq_33() {
         worst = worst.max((hf - hi - predicted).norm());
     }
     eprintln!("dH - predicted {worst:e}, defect up to {largest_defect:e}, H {h_scale:e}");
-    // The defect is real (O(h³) per step, up to 2.5e-7 here) and predicted to round-off
-    // (measured 5e-15 with |H| = 4.2; the bound leaves a factor ~100).
-    assert!(largest_defect > 1e-8, "defect {largest_defect:e}");
+    // The defect is real — largest when the collar bounces off an end stop (t ≈ 1.8 s,
+    // measured 8e-10; ζ̇ and the contact force change fastest there) — and predicted to
+    // round-off (measured 2e-15 with |H| = 1.08): the bound 1e-13 |H| lies three orders below
+    // the defect, so a wrong prediction fails it.
+    assert!(largest_defect > 1e-10, "defect {largest_defect:e}");
     assert!(
         worst < 1e-13 * h_scale,
         "ΔH − predicted = {worst:e} (defect up to {largest_defect:e}, |H| {h_scale:e})"

@@ -185,12 +185,15 @@ def test_ed_large_steps_keep_the_decoupled_factors(dt):
 
 
 def test_newton_converges_quadratically_with_a_sliding():
-    data = free_collar("ed", 3, t_end=0.1).to_dict()
+    data = free_collar("ed", 3, t_end=1.0).to_dict()
     data["simulation"]["newton_tol"] = 1e-15
     data["simulation"]["modified_newton"] = False  # full Newton: quadratic (see test_outputs)
+    # Long steps, so that the predictor leaves Newton something to do (measured 1, 2e-4, 6e-11).
+    data["simulation"]["dt"] = 0.02
     sim = fd._core.Simulation(json.dumps(data))
-    sim.advance_to(0.05)
-    assert assert_quadratic(sim.last_residuals, 1e-11) >= 1, sim.last_residuals
+    sim.advance_to(0.5)
+    # Round-off: ε·EA ≈ 2e-11 N against a first residual of ~1 N (measured floor 3e-11).
+    assert assert_quadratic(sim.last_residuals, 1e-10) >= 1, sim.last_residuals
 
 
 def rotor(spin):
@@ -219,14 +222,17 @@ def rotor(spin):
     return m
 
 
-def test_initial_spin_starts_a_rotor_turning_with_its_drive():
-    # Without the spin only the hub turns at t = 0 and the drive must drag the blades up to
-    # speed (a torque of ~66 kN·m); spun, the blade tips start at Ωr = 40 m/s and the drive
-    # holds a steady spin in vacuum with almost nothing (~6 N·m of centrifugal-stretch transient).
+def test_a_rotor_driven_from_t0_starts_turning_as_a_whole_with_or_without_initial_spin():
+    # Issue 19: the blades follow the driven hub from the first instant (they used to start at
+    # rest, and the drive dragged them up to speed with a torque of ~66 kN·m). Their tips start
+    # at Ωr = 40 m/s — exactly with an initial spin, to the projection's 1e-11 without — and the
+    # drive holds the steady spin in vacuum with a few N·m (measured 4.8: the blades'
+    # centrifugal stretch, which the undeformed start does not carry, rings a little).
     dragged, spun = fd.simulate(rotor(False)), fd.simulate(rotor(True))
     assert spun["tip_v.vy"].values[0] == pytest.approx(40.0, rel=1e-12)
-    assert dragged["tip_v.vy"].values[0] == pytest.approx(0.0, abs=1e-9)
-    assert np.abs(spun["motor.torque"].values).max() < 1e-3 * np.abs(dragged["motor.torque"].values).max()
+    assert dragged["tip_v.vy"].values[0] == pytest.approx(40.0, rel=1e-10)
+    for run in (dragged, spun):
+        assert np.abs(run["motor.torque"].values).max() < 10.0
 
 
 def test_initial_spin_items_must_exist():

@@ -449,6 +449,34 @@ impl BeamElement {
         [e.0[0], e.0[1], e.0[2], k.0[0], k.0[1], k.0[2]]
     }
 
+    /// The strain-rate operator `B_g` of each Gauss point at `state`, `ε̇_g = B_g V`, as its
+    /// columns: column `c` is the strain rate `[ė*, κ̇]` of a unit velocity in unknown `c`
+    /// (`[v, W]` node after node, W material). Zero on rigid motions; the initial-velocity
+    /// projection uses it to make a beam follow its supports without straining.
+    pub fn strain_rate_operators(&self, state: &crate::state::State) -> Vec<Vec<[f64; 6]>> {
+        let n = 6 * self.nodes.len();
+        let rot: Vec<M3<f64>> = self.nodes.iter().map(|&a| state.nodes[a].r).collect();
+        (0..self.points.len())
+            .map(|g| {
+                let p = &self.points[g];
+                let (rg, _) = read_history(&state.history[self.history + g * HISTORY_PER_POINT..]);
+                let mut xp = V3::zero();
+                for (a, &node) in self.nodes.iter().enumerate() {
+                    xp += state.nodes[node].x.scale_f(p.dh[a]);
+                }
+                (0..n)
+                    .map(|c| {
+                        let mut vel = vec![(V3::zero(), V3::zero()); self.nodes.len()];
+                        let unit = &mut vel[c / 6];
+                        let axis = if c % 6 < 3 { &mut unit.0 } else { &mut unit.1 };
+                        axis.0[c % 3] = 1.0;
+                        self.strain_rate(g, &rg, &xp, &rot, &vel)
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
     /// ED: nodal rotations at i and f, and nodal velocities (v, material W) of the j- and
     /// f-states, from the local unknowns (jump velocities carried as h·V_j, system::layout).
     #[allow(clippy::type_complexity)]
@@ -773,6 +801,55 @@ pub(crate) mod tests {
                 let e = tangent_error(&el, &c, &y);
                 // Same bound as the other kernels: FD truncation and round-off relative to |J|.
                 assert!(e < 1e-7, "{scheme:?} statics={statics:?} n={n}: {e:e}");
+            }
+        }
+    }
+
+    #[test]
+    fn strain_rate_operators_give_the_strain_rates_and_nothing_on_rigid_motions() {
+        for n in 2..=4 {
+            let (el, state, _) = fixture(n, Scheme::Ep);
+            let ops = el.strain_rate_operators(&state);
+            let apply = |g: usize, vel: &[(V3<f64>, V3<f64>)]| -> [f64; 6] {
+                let y: Vec<f64> = vel
+                    .iter()
+                    .flat_map(|(v, w)| v.0.into_iter().chain(w.0))
+                    .collect();
+                std::array::from_fn(|r| (0..6 * n).map(|c| ops[g][c][r] * y[c]).sum())
+            };
+            let rot: Vec<M3<f64>> = state.nodes.iter().map(|nd| nd.r).collect();
+            // A generic motion: the operator's product is the strain rate.
+            let vel: Vec<(V3<f64>, V3<f64>)> = (0..n)
+                .map(|a| {
+                    (
+                        V3([0.3, -0.5 * a as f64, 0.2]),
+                        V3([0.4, -0.3, 0.9 + 0.2 * a as f64]),
+                    )
+                })
+                .collect();
+            // A rigid motion v = v₀ + ω × x, W = Rᵀω strains nothing.
+            let omega = V3([0.7, -1.1, 0.4]);
+            let rigid: Vec<(V3<f64>, V3<f64>)> = state
+                .nodes
+                .iter()
+                .map(|nd| {
+                    (
+                        V3([0.2, 0.1, -0.3]) + omega.cross(&nd.x),
+                        nd.r.tmul_v(&omega),
+                    )
+                })
+                .collect();
+            for g in 0..el.points.len() {
+                let (rg, _) = read_history(&state.history[g * HISTORY_PER_POINT..]);
+                let p = &el.points[g];
+                let xp = (0..n).fold(V3::zero(), |s, a| s + state.nodes[a].x.scale_f(p.dh[a]));
+                let direct = el.strain_rate(g, &rg, &xp, &rot, &vel);
+                let (product, still) = (apply(g, &vel), apply(g, &rigid));
+                for r in 0..6 {
+                    // O(1) rates; a linear operator's columns reproduce them to round-off.
+                    assert!((product[r] - direct[r]).abs() < 1e-13, "n={n} g={g} r={r}");
+                    assert!(still[r].abs() < 1e-13, "n={n} g={g} r={r}: {}", still[r]);
+                }
             }
         }
     }

@@ -3,213 +3,73 @@
 //! with which the drives can move the model (a scale for the step-error indicator).
 //!
 //! Both solve `min ½|V − V₀|²_W` subject to `B V + ∂C/∂t = 0` (at the initial configuration)
-//! for some weights W: one KKT matrix, factored once, several right-hand sides.
+//! for some weights W ([`super::velocity_projection`]), the beams' strain rates included.
 
-use crate::joints::RateTerm;
-use crate::math::layout::Layout;
-use crate::math::vec3::{M3, V3};
-use crate::model::{Model, Scheme};
+use super::velocity_projection::{VelocityProjection, Weighting};
+use crate::model::Model;
 use crate::state::State;
-use crate::system::sparse::NewtonMatrix;
 use crate::system::System;
 
-/// The factored KKT matrix of a velocity projection at one configuration, and its weights.
-struct VelocityProjection {
-    lay: Layout,
-    matrix: NewtonMatrix,
-    /// Per node: the translational and rotational weights (mass, material inertia).
-    mass: Vec<f64>,
-    inertia: Vec<M3<f64>>,
-    /// Weight of the coordinate rates.
-    coord_weight: f64,
-}
-
-impl VelocityProjection {
-    /// Builds and factors the projection at `state`. `follow` marks the nodes whose
-    /// velocities should follow the others' (weight 1e-6 of their kinetic energy).
-    /// `None` when the model has no constraints, or the matrix is singular.
-    fn new(sys: &System, state: &State, follow: &[bool]) -> Option<Self> {
-        if sys.layout.n_rows == 0 {
-            return None;
-        }
-        let l = sys.layout;
-        let lay = Layout::new(Scheme::Ep, l.n_nodes, l.n_coords, l.n_rows);
-        let (mass, inertia) = weights(sys, follow);
-        let coord_weight = 1e-14 * sys.mass_ref * sys.length_ref.powi(2);
-        let mut entries: Vec<(usize, usize, f64)> = Vec::new();
-        for a in 0..lay.n_nodes {
-            let d = lay.node_delta(a);
-            for k in 0..3 {
-                entries.push((d + k, d + k, mass[a]));
-                for m in 0..3 {
-                    entries.push((d + 3 + k, d + 3 + m, inertia[a].0[k][m]));
-                }
-            }
-        }
-        for c in 0..lay.n_coords {
-            entries.push((lay.coord_delta(c), lay.coord_delta(c), coord_weight));
-        }
-        for j in &sys.joints {
-            let mut terms = Vec::new();
-            j.rate_terms(state, &mut terms);
-            for (r, term) in terms {
-                let row = lay.mult(j.row0() + r);
-                match term {
-                    RateTerm::Node { node, v, omega } => {
-                        let d = lay.node_delta(node);
-                        // Material angular velocity: B_W = B_ω R.
-                        let bw = state.nodes[node].r.tmul_v(&omega);
-                        for c in 0..3 {
-                            entries.push((row, d + c, v.0[c]));
-                            entries.push((row, d + 3 + c, bw.0[c]));
-                        }
-                    }
-                    RateTerm::Coord { coord, value } => {
-                        entries.push((row, lay.coord_delta(coord), value));
-                    }
-                }
-            }
-        }
-        for d in &sys.drives {
-            entries.push((lay.mult(d.row), lay.coord_delta(d.coord), 1.0));
-        }
-        let matrix = symmetric_matrix(lay.n_unknowns(), &entries)?;
-        Some(VelocityProjection {
-            lay,
-            matrix,
-            mass,
-            inertia,
-            coord_weight,
-        })
-    }
-
-    /// The right-hand side for targets `state`'s velocities and the drives' rates at `t`.
-    fn rhs(&self, sys: &System, state: &State, t: f64) -> Vec<f64> {
-        let lay = self.lay;
-        let mut rhs = vec![0.0; lay.n_unknowns()];
-        for (a, n) in state.nodes.iter().enumerate() {
-            let d = lay.node_delta(a);
-            n.v.scale_f(self.mass[a]).write_to(&mut rhs[d..]);
-            self.inertia[a].mul_v(&n.w).write_to(&mut rhs[d + 3..]);
-        }
-        for c in 0..lay.n_coords {
-            rhs[lay.coord_delta(c)] = self.coord_weight * state.coord_rates[c];
-        }
-        for d in &sys.drives {
-            rhs[lay.mult(d.row)] = d.target_rate(t);
-        }
-        rhs
-    }
-
-    /// Node `a`'s velocity and material angular velocity in a solution.
-    fn node(&self, x: &[f64], a: usize) -> (V3<f64>, V3<f64>) {
-        let d = self.lay.node_delta(a);
-        (
-            V3([x[d], x[d + 1], x[d + 2]]),
-            V3([x[d + 3], x[d + 4], x[d + 5]]),
-        )
-    }
-}
-
-/// The symmetric KKT matrix from entries `(row, col, value)` of one triangle (diagonal
-/// entries once), mirrored; factored.
-fn symmetric_matrix(n: usize, entries: &[(usize, usize, f64)]) -> Option<NewtonMatrix> {
-    let blocks: Vec<Vec<usize>> = entries
-        .iter()
-        .map(|&(i, j, _)| if i == j { vec![i] } else { vec![i, j] })
-        .collect();
-    let refs: Vec<&[usize]> = blocks.iter().map(|b| &b[..]).collect();
-    let (mut m, pos) = NewtonMatrix::from_blocks(n, &refs, None);
-    for (&(i, j, v), p) in entries.iter().zip(&pos) {
-        if i == j {
-            m.values[p[0]] += v;
-        } else {
-            // Block [i, j], row-major: (i, j) at 1, (j, i) at 2.
-            m.values[p[1]] += v;
-            m.values[p[2]] += v;
-        }
-    }
-    m.factor().ok()?;
-    Some(m)
-}
-
-/// Kinetic-energy weights per node; massless nodes get a small weight so the problem stays
-/// regular; nodes in `follow` 1e-6 of theirs.
-fn weights(sys: &System, follow: &[bool]) -> (Vec<f64>, Vec<M3<f64>>) {
-    let n = sys.layout.n_nodes;
-    let floor = 1e-8 * sys.mass_ref;
-    let mut mass = vec![0.0; n];
-    let mut inertia = vec![M3::<f64>::zero(); n];
-    for k in &sys.inertias {
-        mass[k.node] += k.mass;
-        inertia[k.node] = inertia[k.node] + k.inertia;
-    }
-    for a in 0..n {
-        if mass[a] <= 0.0 {
-            mass[a] = floor;
-        }
-        if inertia[a].max_abs() <= 0.0 {
-            inertia[a] = M3::identity().scale_f(floor * sys.length_ref.powi(2));
-        }
-        if follow[a] {
-            mass[a] *= 1e-6;
-            inertia[a] = inertia[a].scale_f(1e-6);
-        }
-    }
-    (mass, inertia)
-}
-
-/// Projects the initial velocities onto the velocity-level constraints, as the closest
-/// velocities in the kinetic-energy norm: `min ½|V − V₀|²_M` subject to `B V + ∂C/∂t = 0`.
-/// Coordinate rates, and the velocities of nodes the model gave none for, carry a negligible
-/// weight, so they follow from the constraints and the given velocities. Returns
-/// each node's velocity change (translational, or rotational times the model size).
+/// Makes the initial velocities consistent with the joints, in two stages.
+///
+/// 1. The velocities the model gave are projected onto the velocity-level constraints, as
+///    the closest in the kinetic-energy norm, the other nodes and the relative coordinates
+///    following freely (`min ½|V − V₀|²_M` subject to `B V + ∂C/∂t = 0`).
+/// 2. With those held, every other node — beam interiors included — takes the velocities of
+///    least strain rate in the beams and, among those, of least kinetic energy: a mechanism
+///    driven from t = 0 starts in its rigid motion, its flexible parts moving with their
+///    supports instead of lagging at rest behind them (which would ring at their modes).
+///
+/// Returns each node's velocity change (translational, or rotational times the model size).
 pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
-    let mut change = vec![0.0; sys.layout.n_nodes];
-    // Nodes without given velocities follow the given ones (weight 1e-6), but relative
-    // coordinates (joint rates, a sliding contact point's ζ̇: weight 1e-14) move first: a
-    // collar launched along a beam at rest slides along it rather than dragging the beam.
-    let any_given = sys.velocity_given.iter().any(|&g| g);
-    let follow: Vec<bool> = sys
-        .velocity_given
-        .iter()
-        .map(|&g| any_given && !g)
-        .collect();
-    let Some(mut p) = VelocityProjection::new(sys, state, &follow) else {
-        return change;
-    };
-    let lay = p.lay;
-    let base = p.rhs(sys, state, state.t);
-    // The small weights of unspecified velocities and coordinate rates keep the matrix
-    // regular but pull them towards their guesses (zero), which moves the given velocities
-    // by ~1e-6. Re-solving with the last solution as their guesses (a proximal iteration)
-    // shrinks that bias by the weight ratio each time: three solves leave ~1e-18.
-    let mut x = base.clone();
-    p.matrix.solve(&mut x);
-    for _ in 0..2 {
-        let mut next = base.clone();
-        for a in (0..lay.n_nodes).filter(|&a| follow[a]) {
+    let n = sys.layout.n_nodes;
+    let mut change = vec![0.0; n];
+    let given = &sys.velocity_given;
+    let none = vec![false; n];
+    let any_given = given.iter().any(|&g| g);
+    if any_given {
+        // Nodes without given velocities follow; relative coordinates (joint rates, a
+        // sliding contact point's ζ̇) move first: a collar launched along a beam at rest
+        // slides along it rather than dragging the beam.
+        let follow: Vec<bool> = given.iter().map(|&g| !g).collect();
+        let w = Weighting {
+            fixed: &none,
+            follow: &follow,
+            beams: false,
+        };
+        let Some(mut p) = VelocityProjection::new(sys, state, &w) else {
+            return change;
+        };
+        let x = p.solve(&p.rhs(sys, state, state.t));
+        for a in (0..n).filter(|&a| given[a]) {
             let (v, w) = p.node(&x, a);
-            let d = lay.node_delta(a);
-            v.scale_f(p.mass[a]).write_to(&mut next[d..]);
-            p.inertia[a].mul_v(&w).write_to(&mut next[d + 3..]);
+            let nd = &mut state.nodes[a];
+            change[a] = (v - nd.v)
+                .norm()
+                .max((nd.r.mul_v(&(w - nd.w))).norm() * sys.length_ref);
+            nd.v = v;
+            nd.w = w;
         }
-        for c in 0..lay.n_coords {
-            next[lay.coord_delta(c)] = p.coord_weight * x[lay.coord_delta(c)];
+    }
+    let w = Weighting {
+        fixed: if any_given { given } else { &none },
+        follow: &none,
+        beams: true,
+    };
+    if let Some(mut p) = VelocityProjection::new(sys, state, &w) {
+        let x = p.solve(&p.rhs(sys, state, state.t));
+        for a in (0..n).filter(|&a| !w.fixed[a]) {
+            let (v, w) = p.node(&x, a);
+            let nd = &mut state.nodes[a];
+            change[a] = (v - nd.v)
+                .norm()
+                .max((nd.r.mul_v(&(w - nd.w))).norm() * sys.length_ref);
+            nd.v = v;
+            nd.w = w;
         }
-        p.matrix.solve(&mut next);
-        x = next;
-    }
-    for (a, (n, change)) in state.nodes.iter_mut().zip(change.iter_mut()).enumerate() {
-        let (v, w) = p.node(&x, a);
-        *change = (v - n.v)
-            .norm()
-            .max((n.r.mul_v(&(w - n.w))).norm() * sys.length_ref);
-        n.v = v;
-        n.w = w;
-    }
-    for c in 0..lay.n_coords {
-        state.coord_rates[c] = x[lay.coord_delta(c)];
+        for c in 0..p.lay.n_coords {
+            state.coord_rates[c] = x[p.lay.coord_delta(c)];
+        }
     }
     change
 }
@@ -290,7 +150,13 @@ pub fn drive_energy(sys: &System, state: &State, t_end: f64) -> f64 {
     if sys.drives.is_empty() {
         return 0.0;
     }
-    let Some(mut p) = VelocityProjection::new(sys, state, &vec![false; sys.layout.n_nodes]) else {
+    let none = vec![false; sys.layout.n_nodes];
+    let w = Weighting {
+        fixed: &none,
+        follow: &none,
+        beams: true,
+    };
+    let Some(mut p) = VelocityProjection::new(sys, state, &w) else {
         return 0.0;
     };
     // Velocities per unit rate of each drive.
@@ -298,10 +164,9 @@ pub fn drive_energy(sys: &System, state: &State, t_end: f64) -> f64 {
         .drives
         .iter()
         .map(|d| {
-            let mut x = vec![0.0; p.lay.n_unknowns()];
-            x[p.lay.mult(d.row)] = 1.0;
-            p.matrix.solve(&mut x);
-            x
+            let mut rhs = vec![0.0; p.n];
+            rhs[p.lay.mult(d.row)] = 1.0;
+            p.solve(&rhs)
         })
         .collect();
     let nd = unit.len();

@@ -5,6 +5,7 @@ mod energy_scale;
 mod initial_velocities;
 mod outputs;
 mod step_control;
+mod velocity_projection;
 
 pub use initial_velocities::project_initial_velocities;
 
