@@ -6,6 +6,7 @@
 //! for some weights W ([`super::velocity_projection`]), the beams' strain rates included.
 
 use super::velocity_projection::{VelocityProjection, Weighting};
+use crate::math::rotation::{exp_map, orthonormalize};
 use crate::model::Model;
 use crate::state::State;
 use crate::system::System;
@@ -74,6 +75,67 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
     change
 }
 
+/// The closest velocities (kinetic-energy norm) that satisfy the velocity-level constraints
+/// at `state`: a step's end velocities satisfy them only to the scheme's accuracy (its
+/// positions satisfy the constraints exactly), and a solve at that instant needs them exact.
+pub fn project_velocities(sys: &System, state: &mut State) {
+    let none = vec![false; sys.layout.n_nodes];
+    let w = Weighting {
+        fixed: &none,
+        follow: &none,
+        beams: false,
+    };
+    let Some(mut p) = VelocityProjection::new(sys, state, &w) else {
+        return;
+    };
+    let x = p.solve(&p.rhs(sys, state, state.t));
+    for (a, nd) in state.nodes.iter_mut().enumerate() {
+        (nd.v, nd.w) = p.node(&x, a);
+    }
+    for c in 0..p.lay.n_coords {
+        state.coord_rates[c] = x[p.lay.coord_delta(c)];
+    }
+}
+
+/// Moves `state`'s positions onto the constraints (drives at their values at `state.t`) by
+/// the least displacement in the kinetic-energy norm: a few Newton iterations of
+/// `B Δ = −C`. A step's end satisfies them to round-off, a model's input only to the digits
+/// it was typed with; a solve over a vanishing step needs them exact, since it would take
+/// the violation `C` out in that step, with forces ~ m C/h².
+pub fn project_positions(sys: &System, state: &mut State) {
+    let none = vec![false; sys.layout.n_nodes];
+    let w = Weighting {
+        fixed: &none,
+        follow: &none,
+        beams: false,
+    };
+    for _ in 0..3 {
+        let Some(mut p) = VelocityProjection::new(sys, state, &w) else {
+            return;
+        };
+        let lay = p.lay;
+        let mut rhs = vec![0.0; p.n];
+        for j in &sys.joints {
+            let c = j.values_at(state);
+            for r in 0..j.n_rows() {
+                rhs[lay.mult(j.row0() + r)] = -c[r];
+            }
+        }
+        for d in &sys.drives {
+            rhs[lay.mult(d.row)] = d.target(state.t) - state.coords[d.coord];
+        }
+        let x = p.solve(&rhs);
+        for (a, nd) in state.nodes.iter_mut().enumerate() {
+            let (dx, dw) = p.node(&x, a);
+            nd.x += dx;
+            nd.r = orthonormalize(&nd.r.mul_m(&exp_map(&dw)));
+        }
+        for c in 0..lay.n_coords {
+            state.coords[c] += x[lay.coord_delta(c)];
+        }
+    }
+}
+
 /// Makes the initial velocities consistent with the joints (see
 /// [`project_initial_velocities`]). Velocities the model did not give are simply completed;
 /// changing given ones returns a warning that says which nodes, by how much, and — when
@@ -106,6 +168,49 @@ pub fn make_consistent(model: &Model, system: &System, state: &mut State) -> Opt
     Some(format!(
         "initial velocities of node(s) {} were adjusted to satisfy the joints' velocity constraints (largest change {worst:.4} m/s, or rad/s times the model size); {why}",
         changed.join(", ")
+    ))
+}
+
+/// A warning when drives already moving at t = 0 carry beams along: the model starts in
+/// that motion, but its beams start unstrained under the motion's inertial loads (a
+/// connecting rod's bending, a blade's centrifugal stretch), so they ring at their modes —
+/// an impulsive start of the loads, which no choice of velocities removes. Spun and
+/// pre-loaded beams start in their steady state and do not count.
+pub fn unstrained_start(system: &System, state: &State, preload: bool) -> Option<String> {
+    let moving: Vec<String> = system
+        .joint_info
+        .iter()
+        .flat_map(|info| info.coords.iter().map(move |c| (info, c)))
+        .filter_map(|(info, c)| {
+            let rate = system.drives[c.drive?].target_rate(state.t);
+            (rate != 0.0 && rate.is_finite())
+                .then(|| format!("`{}` ({} rate {rate:.4})", info.name, c.name))
+        })
+        .collect();
+    if moving.is_empty() {
+        return None;
+    }
+    let l = system.length_ref;
+    let speed = |a: usize| state.nodes[a].v.norm() + state.nodes[a].omega().norm() * l;
+    let v_scale = (0..state.nodes.len()).map(speed).fold(1e-12f64, f64::max);
+    let steady = |a: usize| preload && system.node_spin[a].is_some();
+    let carried: Vec<String> = system
+        .beam_info
+        .iter()
+        .filter(|b| {
+            b.nodes
+                .iter()
+                .any(|&a| speed(a) > 1e-9 * v_scale && !steady(a))
+        })
+        .map(|b| format!("`{}`", b.name))
+        .collect();
+    if carried.is_empty() {
+        return None;
+    }
+    Some(format!(
+        "drive(s) {} already move at t = 0: the model starts in that motion, but beam(s) {} start unstrained under its inertial loads and will ring at their modes; to start smoothly, bring the drive(s) up from rest with a smooth rate (docs/expressions.md, \"Starting a drive from rest\"), or for a steady spin give `initial_spins` and `simulation.preload: true`",
+        moving.join(", "),
+        carried.join(", ")
     ))
 }
 

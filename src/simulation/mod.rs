@@ -150,16 +150,7 @@ impl Simulation {
         check_redundancy(model, &system).map_err(SimError::Model)?;
         let mut settings = model.simulation.clone();
         settings.scheme = scheme;
-        let mut state = system.initial.clone();
-        let mut warnings = Vec::new();
-        if !statics && settings.preload {
-            start_from_static_equilibrium(model, &system, &mut state)?;
-        }
-        if statics {
-            state.at_rest();
-        } else if let Some(w) = initial_velocities::make_consistent(model, &system, &mut state) {
-            warnings.push(w);
-        }
+        let (state, warnings) = initial_state(model, &system, &settings, statics)?;
         let mut integrator = Integrator::new(&system, &settings);
         let energy_floor = if statics || settings.step_control == StepControl::Fixed {
             0.0
@@ -213,6 +204,7 @@ impl Simulation {
             sim.values.extend_from_slice(&row);
         } else {
             sim.record();
+            sim.push_instant_values();
         }
         Ok(sim)
     }
@@ -455,7 +447,11 @@ impl Simulation {
                 break;
             }
         }
-        if self.done() {
+        if self.done() && !self.pending.is_empty() {
+            // The last samples: interpolated towards the end instant's own values.
+            if self.recent.back().is_some_and(|(t, _)| *t < self.state.t) {
+                self.push_instant_values();
+            }
             self.finalize_pending(true);
         }
         self.update_stats();
@@ -492,6 +488,34 @@ impl Simulation {
             statics: None,
         }
     }
+}
+
+/// The state a run starts from, and what the start warns about: at rest for statics; else
+/// pre-loaded if asked, with its velocities made consistent.
+fn initial_state(
+    model: &Model,
+    system: &System,
+    settings: &SimulationSettings,
+    statics: bool,
+) -> Result<(State, Vec<String>), SimError> {
+    let mut state = system.initial.clone();
+    let mut warnings = Vec::new();
+    if statics {
+        state.at_rest();
+        return Ok((state, warnings));
+    }
+    if settings.preload {
+        start_from_static_equilibrium(model, system, &mut state)?;
+    }
+    warnings.extend(initial_velocities::make_consistent(
+        model, system, &mut state,
+    ));
+    warnings.extend(initial_velocities::unstrained_start(
+        system,
+        &state,
+        settings.preload,
+    ));
+    Ok((state, warnings))
 }
 
 /// A static pre-load: the state becomes the static equilibrium under the loads and gravity at

@@ -1,6 +1,6 @@
 //! Samples: sensor channels at the requested output times — on states interpolated within
 //! the step to the scheme's order — with the multiplier channels (step averages)
-//! interpolated between mid-steps.
+//! interpolated between mid-steps, and at the run's first and last instants solved there.
 
 use super::Simulation;
 use crate::integrator::dense_output::state_between;
@@ -113,6 +113,45 @@ impl Simulation {
             }
             self.times.push(t);
             self.values.extend_from_slice(&row);
+        }
+    }
+
+    /// The step channels at the current instant, from the consistent solution of the
+    /// equations of motion there: a step of vanishing length (1e-3 of the step size, from a
+    /// fresh integrator so the run's own factors are untouched, from the state with its
+    /// positions and velocities projected onto the constraints), whose step-average
+    /// accelerations and multipliers are the instant's to O(1e-3 of a step's change). Samples between this
+    /// instant and the nearest mid-step interpolate from it, instead of extrapolating the
+    /// mid-steps. Nothing when that step fails (e.g. a drive undefined past the end): the
+    /// samples then extrapolate as before.
+    pub(super) fn push_instant_values(&mut self) {
+        if self.channels.step_channels().is_empty() {
+            return;
+        }
+        let step = self.h_next.min(self.settings.dt_max());
+        // Short against a step, but long enough that the motion over it, ~½ a h², stands
+        // 1e4 above the round-off of positions ~ε L (a from gravity and the speeds).
+        let l = self.system.length_ref;
+        let speed = self
+            .state
+            .nodes
+            .iter()
+            .fold(0.0f64, |m, n| m.max(n.v.norm() + n.omega().norm() * l));
+        let accel = self.system.gravity.norm().max(speed * speed / l);
+        let floor = if accel > 0.0 {
+            (1e4 * f64::EPSILON * l / accel).sqrt()
+        } else {
+            0.0
+        };
+        let h = (1e-3 * step).max(floor.min(0.1 * step));
+        let mut integrator = crate::integrator::Integrator::new(&self.system, &self.settings);
+        // A step's end velocities meet the velocity constraints only to the scheme's
+        // accuracy; over so short a step the difference would take an impulse.
+        let mut instant = self.state.clone();
+        super::initial_velocities::project_positions(&self.system, &mut instant);
+        super::initial_velocities::project_velocities(&self.system, &mut instant);
+        if let Ok((_, report)) = integrator.step(&self.system, &instant, h) {
+            self.push_step_values(self.state.t, &report);
         }
     }
 

@@ -58,7 +58,7 @@ impl VelocityProjection {
     /// there is nothing to project (no constraints, no beams).
     pub fn new(sys: &System, state: &State, w: &Weighting) -> Option<Self> {
         let l = sys.layout;
-        if l.n_rows == 0 && !(w.beams && !sys.beams.is_empty()) {
+        if l.n_rows == 0 && (!w.beams || sys.beams.is_empty()) {
             return None;
         }
         let lay = Layout::new(Scheme::Ep, l.n_nodes, l.n_coords, l.n_rows);
@@ -165,10 +165,9 @@ impl VelocityProjection {
                     }
                 }
                 let scale = -1.0 / (tau2 * point.weight);
-                for r in 0..6 {
-                    for q in r..6 {
-                        self.entries
-                            .push((row + r, row + q, scale * compliance[r][q]));
+                for (r, line) in compliance.iter().enumerate() {
+                    for (q, &c) in line.iter().enumerate().skip(r) {
+                        self.entries.push((row + r, row + q, scale * c));
                     }
                 }
             }
