@@ -240,20 +240,30 @@ impl ReferenceLine {
     }
 }
 
-/// The section frame at a line's start with tangent `t`: e₂ from the hint (or a default axis)
-/// made normal to `t`.
+/// The section frame at a line's start with tangent `t`: e₂ from the hint (or the default
+/// [`default_e2`]) made normal to `t`.
 fn start_frame(t: V3<f64>, e2_hint: Option<V3<f64>>) -> Result<M3<f64>, String> {
-    let trial = e2_hint.unwrap_or(if t.0[0].abs() < 0.9 {
-        V3([1.0, 0.0, 0.0])
-    } else {
-        V3([0.0, 1.0, 0.0])
-    });
+    let trial = e2_hint.unwrap_or_else(|| default_e2(t));
     let e2 = trial - t.scale_f(trial.dot(&t));
     if e2.norm() < 1e-8 * trial.norm().max(1e-300) {
         return Err("e2 is parallel to the beam axis at the start; give an e2 normal to it".into());
     }
     let e2 = e2.scale_f(1.0 / e2.norm());
     Ok(M3::from_cols(t, e2, t.cross(&e2)))
+}
+
+/// The default section axis 2 of a beam along `t`: `ẑ × t`, horizontal, so that axis 3
+/// (`t × e₂`) lies in the vertical plane through the beam on the +z side — for a horizontal beam
+/// it is +z. It turns continuously with the beam's direction (identical blades patterned about
+/// z get identical frames); a vertical beam, where `ẑ × t` vanishes, takes +y (the limit of a
+/// beam tilted from the vertical towards +x).
+pub fn default_e2(t: V3<f64>) -> V3<f64> {
+    let h = V3([0.0, 0.0, 1.0]).cross(&t);
+    if h.norm() > 1e-6 * t.norm() {
+        h
+    } else {
+        V3([0.0, 1.0, 0.0])
+    }
 }
 
 /// A circular arc from `start` about `axis` through `center` by `angle`, which must end at
@@ -358,6 +368,39 @@ mod tests {
         let dr = (f(s + d) - f(s - d)).scale_f(0.5 / d);
         let w = r.transpose().mul_m(&dr);
         V3([w.0[2][1], w.0[0][2], w.0[1][0]])
+    }
+
+    #[test]
+    fn the_default_section_frame_turns_continuously_with_the_beam() {
+        let frame = |t: V3<f64>| start_frame(t, None).unwrap();
+        // Horizontal beams: axis 3 is +z whatever the azimuth (it used to flip to −z past
+        // ~26° from x), so blades patterned about z have patterned frames.
+        for k in 0..72 {
+            let a = (k as f64 * 5.0).to_radians();
+            let f = frame(V3([a.cos(), a.sin(), 0.0]));
+            assert!(
+                (f.col(2) - V3([0.0, 0.0, 1.0])).norm() < 1e-15,
+                "azimuth {k}·5°"
+            );
+        }
+        // Over the sphere (away from the vertical, where ẑ × t vanishes), neighbouring
+        // directions 1° apart have frames 1° apart: no flip anywhere.
+        for i in 1..179 {
+            for j in 0..360 {
+                let (p, a) = ((i as f64).to_radians(), (j as f64).to_radians());
+                let (p2, a2) = (p + 1f64.to_radians(), a + 1f64.to_radians());
+                let t = |p: f64, a: f64| V3([p.sin() * a.cos(), p.sin() * a.sin(), p.cos()]);
+                let (f, g) = (frame(t(p, a)), frame(t(p2.min(179f64.to_radians()), a2)));
+                // e₂ = ẑ × t/|ẑ × t| depends on the azimuth only: 1° turns it by 0.01745; a
+                // flip would change it by up to 2.
+                assert!(
+                    (f.col(1) - g.col(1)).norm() < 0.0175,
+                    "polar {i}°, azimuth {j}°"
+                );
+            }
+        }
+        // A vertical beam takes +y.
+        assert!((frame(V3([0.0, 0.0, 1.0])).col(1) - V3([0.0, 1.0, 0.0])).norm() < 1e-15);
     }
 
     #[test]

@@ -146,7 +146,8 @@ pub struct Beam {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub sections: Vec<SectionStation>,
     /// Direction of the section's axis 2 at the start (projected normal to the beam axis);
-    /// defaults to a direction normal to the axis.
+    /// defaults to `ẑ × axis`: horizontal, with axis 3 in the vertical plane through the beam
+    /// on the +z side (+z itself for a horizontal beam); +y for a vertical beam.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub e2: Option<Vec3>,
     /// Constant pre-twist rate k₁, rad/m: the section frame turns about the axis along the span.
