@@ -7,6 +7,7 @@
 
 use super::velocity_projection::{VelocityProjection, Weighting};
 use crate::math::rotation::{exp_map, orthonormalize};
+use crate::math::vec3::V3;
 use crate::model::Model;
 use crate::state::State;
 use crate::system::System;
@@ -43,13 +44,7 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
         };
         let x = p.solve(&p.rhs(sys, state, state.t));
         for a in (0..n).filter(|&a| given[a]) {
-            let (v, w) = p.node(&x, a);
-            let nd = &mut state.nodes[a];
-            change[a] = (v - nd.v)
-                .norm()
-                .max((nd.r.mul_v(&(w - nd.w))).norm() * sys.length_ref);
-            nd.v = v;
-            nd.w = w;
+            change[a] = set_velocities(state, a, p.node(&x, a), sys.length_ref);
         }
     }
     let w = Weighting {
@@ -60,18 +55,22 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
     if let Some(mut p) = VelocityProjection::new(sys, state, &w) {
         let x = p.solve(&p.rhs(sys, state, state.t));
         for a in (0..n).filter(|&a| !w.fixed[a]) {
-            let (v, w) = p.node(&x, a);
-            let nd = &mut state.nodes[a];
-            change[a] = (v - nd.v)
-                .norm()
-                .max((nd.r.mul_v(&(w - nd.w))).norm() * sys.length_ref);
-            nd.v = v;
-            nd.w = w;
+            change[a] = set_velocities(state, a, p.node(&x, a), sys.length_ref);
         }
         for c in 0..p.lay.n_coords {
             state.coord_rates[c] = x[p.lay.coord_delta(c)];
         }
     }
+    change
+}
+
+/// Sets node `a`'s velocity and material angular velocity; returns the change (translational,
+/// or rotational times the model size `l`).
+fn set_velocities(state: &mut State, a: usize, (v, w): (V3<f64>, V3<f64>), l: f64) -> f64 {
+    let nd = &mut state.nodes[a];
+    let change = (v - nd.v).norm().max(nd.r.mul_v(&(w - nd.w)).norm() * l);
+    nd.v = v;
+    nd.w = w;
     change
 }
 
