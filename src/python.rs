@@ -220,11 +220,19 @@ impl PySimulation {
 
     /// Static analysis only, linearized about the current state (see
     /// `Simulation::linearize`): `(n, (k_indptr, k_indices, k_data), (m_rows, m_cols,
-    /// m_data), labels)` — K in compressed sparse columns, M as triplets.
+    /// m_data), (c_rows, c_cols, c_data), labels)` — K in compressed sparse columns, the mass
+    /// M and viscous damping C as triplets.
+    #[allow(clippy::type_complexity)]
     fn linearize<'py>(
         &mut self,
         py: Python<'py>,
-    ) -> PyResult<(usize, SparseArrays<'py>, SparseArrays<'py>, Vec<String>)> {
+    ) -> PyResult<(
+        usize,
+        SparseArrays<'py>,
+        SparseArrays<'py>,
+        SparseArrays<'py>,
+        Vec<String>,
+    )> {
         if !self.sim.is_static() {
             return Err(ModelError::new_err(
                 "linearize: the model's simulation.analysis must be \"static\"",
@@ -236,6 +244,7 @@ impl PySimulation {
             lin.n,
             sparse_arrays(py, lin.stiffness),
             sparse_arrays(py, lin.mass),
+            sparse_arrays(py, lin.damping),
             lin.labels,
         ))
     }

@@ -205,6 +205,7 @@ class Model:
         end_node: str | None = None,
         velocity: Vec3 | None = None,
         angular_velocity: Vec3 | None = None,
+        damping: Mapping[str, Any] | None = None,
     ) -> Model:
         """A geometrically exact beam from `start` to `end` (or shared `start_node` /
         `end_node`), meshed with `elements` elements of `order` 1, 2 or 3; its nodes are named
@@ -217,6 +218,10 @@ class Model:
           follows from the start), or `via=[p1, p2, ...]` corner points of a polyline.
         - Pre-twist: `twist_rate` (rad/m) or `twist={"eta": [...], "angle": [...]}` (rad).
         - `e2`: the section's axis 2 at the start (projected normal to the beam).
+        - `damping`: structural damping, e.g. `{"ratio": 0.01, "frequency": 12.0}` (1 % at
+          12 Hz, stiffness-proportional), `{"stiffness_proportional": μ}` (s), a sectional
+          `{"matrix": 6×6}` (N·s), and/or `{"mass_proportional": α}` (1/s; damps rigid motion
+          too). See docs/damping.md.
         """
         num = _vec
         self.data["beams"].append(
@@ -240,6 +245,7 @@ class Model:
                     "via": [_vec(p) for p in via] if via is not None else None,
                     "velocity": _vec(velocity) if velocity is not None else None,
                     "angular_velocity": _vec(angular_velocity) if angular_velocity is not None else None,
+                    "damping": num(damping) if damping is not None else None,
                 }
             )
         )

@@ -9,6 +9,11 @@ null-space basis of their gradients and solve densely with numpy; larger ones so
 bordered system `[K + σM  Bᵀ; B  0]` with a sparse LU (SuperLU) inside ARPACK's Arnoldi
 iteration (scipy), so memory and time grow with the matrix's nonzeros, not n². (K carries the
 static solver's 1e-12 tangent regularisation, far below round-off of the eigenvalues.)
+
+With viscous damping C (beams' structural damping, joint dampers) each mode's damped root
+λ = −ζω ± iω√(1 − ζ²) of `(λ²M + λC + K) φ = 0` is found by Newton's method from the
+undamped mode (see `_damped_roots`): the roots that belong to the lowest modes, not the
+cluster of overdamped roots at −1/μ that stiffness-proportional damping gives the highest ones.
 """
 
 from __future__ import annotations
@@ -39,7 +44,10 @@ def modes(
     gravity (`preload=True`, solved as by `solve_static`) or about its initial configuration.
 
     Returns an xarray.Dataset over `mode` (1, 2, …) with `omega` (rad/s), `frequency` (Hz)
-    and `shape[mode, dof]`: mass-normalized nodal displacements and (material) rotations,
+    of the undamped modes; `damping_ratio` ζ, `damped_frequency` (Hz, ω√(1 − ζ²)/2π) and
+    `decay_rate` (ζω, 1/s) of the damped ones (0, `frequency` and 0 without damping; an
+    overdamped mode has ζ ≥ 1 and no damped frequency); and
+    `shape[mode, dof]` of the undamped modes: mass-normalized nodal displacements and (material) rotations,
     `dof` labels `<node>.<x|y|z|rx|ry|rz>`. Rigid-body modes of an unrestrained model appear
     with ω ≈ 0. Raises ModelError if some admissible motion carries no mass (give the node a
     body or restrain it).
@@ -61,17 +69,25 @@ def modes(
                 "linearize about the initial configuration instead with preload=False "
                 "(flexdyn modes --no-preload)"
             ) from None
-    n, (kp, ki, kv), (mr, mc, mv), labels = sim.linearize()
+    n, (kp, ki, kv), (mr, mc, mv), (cr, cc, cv), labels = sim.linearize()
     k = sp.csc_matrix((kv, ki, kp), shape=(n, n))
     m = sp.csc_matrix((mv, (mr, mc)), shape=(n, n))
+    c = sp.csc_matrix((cv, (cr, cc)), shape=(n, n))
     rows = np.array([lab.startswith("row:") for lab in labels], dtype=bool)
     q = ~rows
-    if method == "dense" or (method == "auto" and n <= DENSE_LIMIT):
+    dense = method == "dense" or (method == "auto" and n <= DENSE_LIMIT)
+    if dense:
         omega2, shapes_q = _dense_modes(k.toarray(), m.toarray(), rows, count)
     else:
         omega2, shapes_q = _sparse_modes(k, m, rows, count)
     count = omega2.size
     omega = np.sqrt(np.clip(omega2, 0.0, None))
+    if c.nnz:
+        roots = (_dense_damped if dense else _sparse_damped)(k, m, c, rows, omega, shapes_q)
+    else:
+        roots = omega.astype(complex) * 1j
+    natural = np.abs(roots)
+    zeta = np.where(natural > 0, -roots.real / np.where(natural > 0, natural, 1.0), 0.0)
     q_labels = [lab for lab, keep in zip(labels, q) if keep]
     node_dofs = [i for i, lab in enumerate(q_labels) if not lab.startswith("coord:")]
     shape = shapes_q[node_dofs, :].T
@@ -81,6 +97,9 @@ def modes(
             # Negative below an unstable equilibrium (ω is then shown as 0).
             "omega_squared": ("mode", omega2, {"units": "rad^2/s^2"}),
             "frequency": ("mode", omega / (2 * np.pi), {"units": "Hz"}),
+            "damping_ratio": ("mode", zeta, {"units": "1"}),
+            "damped_frequency": ("mode", np.abs(roots.imag) / (2 * np.pi), {"units": "Hz"}),
+            "decay_rate": ("mode", -roots.real, {"units": "1/s"}),
             "shape": (("mode", "dof"), shape, {"units": "mass-normalized"}),
         },
         coords={"mode": np.arange(1, count + 1), "dof": [q_labels[i] for i in node_dofs]},
@@ -105,13 +124,7 @@ def _dense_modes(k, m, rows, count):
     q = ~rows
     kqq = k[np.ix_(q, q)]
     mqq = m[np.ix_(q, q)]
-    if rows.any():
-        b = k[np.ix_(rows, q)]
-        _, sv, vt = np.linalg.svd(b)
-        rank = int(np.sum(sv > 1e-10 * sv[0])) if sv.size else 0
-        z = vt[rank:].T
-    else:
-        z = np.eye(int(q.sum()))
+    z = _null_space(k, rows)
     # K is not symmetrized: follower loads make it unsymmetric (their eigenvalues may then
     # be complex near flutter; the real part of ω² is reported).
     kr = z.T @ kqq @ z
@@ -156,6 +169,68 @@ def _sparse_modes(k, m, rows, count):
         raise _core.ModelError(NO_MASS_OR_REDUNDANT)
     order = np.argsort(-mu)
     return 1.0 / mu[order] - sigma, _mass_normalized(vecs[:, order], mqq)
+
+
+def _damped_roots(solve, m, c, omega, shapes):
+    """The damped root λ of each undamped mode (ω_i, φ_i), by Newton's method on
+    `Q(λ) x = (λ²M + λC + K) x = 0` with `φ_iᵀ x = 1` (nonlinear inverse iteration:
+    `Q(λ) y = Q′(λ) x`, `λ ← λ − 1/φᵀy`, `x ← y/φᵀy`), from the root of the mode's own
+    projection `λ² + λ c_ii + ω_i² = 0`, `c_ii = φ_iᵀCφ_i` (exact for Rayleigh damping).
+    `solve(λ, b)` solves with Q(λ) on the admissible motions. A mode whose projection is
+    overdamped keeps the projection's slow real root."""
+    roots = np.empty(omega.size, dtype=complex)
+    for i, (w, phi) in enumerate(zip(omega, shapes.T)):
+        cii = phi @ (c @ phi)
+        disc = 0.25 * cii * cii - w * w
+        if disc >= 0.0:
+            roots[i] = -0.5 * cii + np.sqrt(disc)
+            continue
+        lam, x = complex(-0.5 * cii, np.sqrt(-disc)), phi.astype(complex)
+        for _ in range(30):
+            y = solve(lam, (2 * lam) * (m @ x) + c @ x)
+            step = 1.0 / (phi @ y)
+            lam, x = lam - step, y * step
+            if abs(step) <= 1e-13 * abs(lam):
+                break
+        roots[i] = lam
+    return roots
+
+
+def _dense_damped(k, m, c, rows, omega, shapes):
+    """Damped roots of a small model, constraints eliminated as in `_dense_modes`."""
+    k, m, c = k.toarray(), m.toarray(), c.toarray()
+    q = ~rows
+    z = _null_space(k, rows)
+    kr, mr, cr = (z.T @ a[np.ix_(q, q)] @ z for a in (k, m, c))
+    reduced = z.T @ shapes  # z is orthonormal: the shapes' coordinates in its basis
+
+    def solve(lam, b):
+        return np.linalg.solve(lam * lam * mr + lam * cr + kr, b)
+
+    return _damped_roots(solve, mr, cr, omega, reduced)
+
+
+def _sparse_damped(k, m, c, rows, omega, shapes):
+    """Damped roots of a large model, with bordered complex solves as in `_sparse_modes`."""
+    q = np.flatnonzero(~rows)
+    mqq, cqq = m[q][:, q].tocsr(), c[q][:, q].tocsr()
+    rhs = np.zeros(k.shape[0], dtype=complex)
+
+    def solve(lam, b):
+        rhs[q] = b
+        return spla.splu((lam * lam * m + lam * c + k).tocsc()).solve(rhs)[q]
+
+    return _damped_roots(solve, mqq, cqq, omega, shapes)
+
+
+def _null_space(k, rows):
+    """A basis Z of the motions the constraints admit (null space of their gradients)."""
+    q = ~rows
+    if not rows.any():
+        return np.eye(int(q.sum()))
+    _, sv, vt = np.linalg.svd(k[np.ix_(rows, q)])
+    rank = int(np.sum(sv > 1e-10 * sv[0])) if sv.size else 0
+    return vt[rank:].T
 
 
 NO_MASS = (

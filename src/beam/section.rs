@@ -210,6 +210,22 @@ fn check_spd(a: &Mat6, what: &str) -> Result<(), String> {
     Ok(())
 }
 
+/// A damping matrix: finite, symmetric and positive semi-definite (zero rows allowed, e.g. no
+/// axial damping), so that its forces can only dissipate.
+pub fn check_semidefinite(a: &Mat6) -> Result<(), String> {
+    let scale = a.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    if scale == 0.0 {
+        return Ok(());
+    }
+    // A shift of 1e-10 of the largest entry makes a semi-definite matrix definite, while a
+    // negative eigenvalue any larger than round-off still fails the factorization.
+    let shifted: Mat6 = std::array::from_fn(|i| {
+        std::array::from_fn(|j| a[i][j] + if i == j { 1e-10 * scale } else { 0.0 })
+    });
+    check_spd(&shifted, "damping")
+        .map_err(|e| e.replace("positive definite", "positive semi-definite"))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

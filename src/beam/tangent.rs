@@ -81,6 +81,19 @@ pub(super) fn evaluate(
     } else {
         chained::<GEO, 2, 2, 3, 2>(el, ctx, yl, rl_out, [0, 1], emit!());
     }
+    if !ctx.is_static() && !el.mass_damping.is_empty() {
+        el.add_mass_damping(ctx, yl, &mut rl[..n]);
+        // Its rows are linear: `α m/h` on Δx, `α J/h` on r.
+        for (a, (am, aj)) in el.mass_damping.iter().enumerate() {
+            for i in 0..3 {
+                let (t, r) = (per * a + i, per * a + 3 + i);
+                vals[pos[t * n + t]] += am / ctx.h;
+                for j in 0..3 {
+                    vals[pos[r * n + per * a + 3 + j]] += aj.0[i][j] / ctx.h;
+                }
+            }
+        }
+    }
     for (l, &g) in idx.iter().enumerate() {
         res[g] += rl[l];
     }
@@ -311,22 +324,25 @@ fn closed_point_derivatives<const ND: usize>(
     let hs = rodrigues_h(rho);
     let (d_f, d_j, eps_j) = strain_derivatives::<ND>(el, ctx, &ps, p, &hs);
     // w C by 3×3 blocks; `wc(half, ∂ε)` = the sectional forces' half of w C ∂ε.
-    let block = |i: usize, j: usize| {
-        M3(std::array::from_fn(|r| {
-            std::array::from_fn(|s| w * c[3 * i + r][3 * j + s])
-        }))
-    };
-    let cb = [[block(0, 0), block(0, 1)], [block(1, 0), block(1, 1)]];
+    let cb = blocks(c, w);
     let wc = |half: usize, e: [B3; 2]| cb[half][0].mul_m(&e[0]) + cb[half][1].mul_m(&e[1]);
-    let n = mat6_mul(c, &std::array::from_fn(|k| 0.5 * (eps_j[k] + ps.eps_f[k])));
-    let (n_f, n_m) = (V3([n[0], n[1], n[2]]), V3([n[3], n[4], n[5]]));
+    // Sectional damping: the mean forces gain `D (ε_f − ε_i)/h`, so `w D/h ∂ε_f`.
+    let db = pt.damping.as_ref().map(|d| blocks(d, w / ctx.h));
+    let mean_force = |half: usize, k: usize| {
+        let mean = |h: usize| (d_f[h][k] + d_j[h][k]).scale_f(0.5);
+        let elastic = wc(half, [mean(0), mean(1)]);
+        match &db {
+            Some(db) => elastic + db[half][0].mul_m(&d_f[0][k]) + db[half][1].mul_m(&d_f[1][k]),
+            None => elastic,
+        }
+    };
+    let (n_f, n_m) = mean_forces(el, ctx, g, &ps, &eps_j);
     let xm_t = (ps.xp_i + ps.xp_f).scale_f(0.5).tilde();
     let hrm = ps.hm.mul_m(&ps.rm);
     let mut jac = [[B3::zero(); ND]; O_GROUPS];
     for k in 0..ND {
-        let mean = |h: usize| (d_f[h][k] + d_j[h][k]).scale_f(0.5);
-        jac[0][k] = ps.rm.mul_m(&wc(0, [mean(0), mean(1)]));
-        jac[2][k] = hrm.mul_m(&wc(1, [mean(0), mean(1)]));
+        jac[0][k] = ps.rm.mul_m(&mean_force(0, k));
+        jac[2][k] = hrm.mul_m(&mean_force(1, k));
     }
     jac[0][1] = jac[0][1] - ps.rg_f.mul_v(&n_f).tilde().mul_m(&hs).scale_f(0.5 * w);
     jac[2][1] = jac[2][1] + h_times_gradient(rho, &ps.rm.mul_v(&n_m)).scale_f(w)
@@ -357,6 +373,37 @@ fn closed_point_derivatives<const ND: usize>(
         jac[7][0] = jac[7][0] + o[6].tilde();
     }
     (o, jac)
+}
+
+/// `a` times a 6×6 matrix, as 3×3 blocks `[[11, 12], [21, 22]]`.
+fn blocks(m: &crate::beam::section::Mat6, a: f64) -> [[B3; 2]; 2] {
+    let blk = |i: usize, j: usize| {
+        M3(std::array::from_fn(|r| {
+            std::array::from_fn(|s| a * m[3 * i + r][3 * j + s])
+        }))
+    };
+    [[blk(0, 0), blk(0, 1)], [blk(1, 0), blk(1, 1)]]
+}
+
+/// The D-part's mean sectional force and moment, `C (ε_j + ε_f)/2 + D (ε_f − ε_i)/h` (EP:
+/// ε_j is ε_i), as in [`BeamElement::point_outputs`].
+fn mean_forces(
+    el: &BeamElement,
+    ctx: &StepCtx,
+    g: usize,
+    ps: &PointStep<f64>,
+    eps_j: &[f64; 6],
+) -> (V3<f64>, V3<f64>) {
+    let pt = &el.points[g];
+    let mut n = mat6_mul(
+        &pt.stiffness,
+        &std::array::from_fn(|k| 0.5 * (eps_j[k] + ps.eps_f[k])),
+    );
+    if let Some(d) = &pt.damping {
+        let nd = mat6_mul(d, &BeamElement::strain_rate_over_step(ctx, ps));
+        n = std::array::from_fn(|k| n[k] + nd[k]);
+    }
+    (V3([n[0], n[1], n[2]]), V3([n[3], n[4], n[5]]))
 }
 
 /// [`point_jacobian`] by one dual pass over the geometric inputs (and under ED the strain

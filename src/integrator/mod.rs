@@ -1079,7 +1079,8 @@ impl Integrator {
     }
 
     /// The step's energy bookkeeping (ed-scheme-notes §3.4): `E_f − E_i = W_drive + W_ext +
-    /// W_damp − D`, and the constraint forces' work (zero to round-off).
+    /// W_damp − D` (W_damp: joint dampers and the beams' structural damping), and the
+    /// constraint forces' work (zero to round-off).
     fn account_energy(&self, sys: &System, ctx: &StepCtx, report: &mut StepReport) {
         let layout = sys.layout;
         let (h, st, y) = (ctx.h, ctx.state, &self.y);
@@ -1096,7 +1097,13 @@ impl Integrator {
             .springs
             .iter()
             .map(|sp| -sp.damping * y[layout.coord_delta(sp.coord)].powi(2) / h)
-            .sum();
+            .sum::<f64>()
+            + sys
+                .beams
+                .iter()
+                .filter(|b| b.is_damped())
+                .map(|b| b.damping_work(ctx, &b.gather(y)))
+                .sum::<f64>();
         if layout.ed() {
             let mut d = [0.0; 3];
             for k in &sys.inertias {

@@ -11,7 +11,7 @@ mod section;
 
 pub use check::{ModelError, ModelErrors};
 pub use load::{parse_json, parse_yaml};
-pub use section::{Matrices, SectionSpec, Shorthand};
+pub use section::{BeamDamping, Matrices, SectionSpec, Shorthand};
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -169,6 +169,10 @@ pub struct Beam {
     pub velocity: Option<Vec3>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub angular_velocity: Option<Vec3>,
+    /// Structural damping: stiffness-proportional (μ, or a ratio at a frequency), a sectional
+    /// damping matrix, and/or mass-proportional.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub damping: Option<BeamDamping>,
 }
 
 /// A section at a station along a beam.

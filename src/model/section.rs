@@ -80,3 +80,52 @@ impl From<Shorthand> for SectionSpec {
         SectionSpec::Shorthand(s)
     }
 }
+
+/// A beam's structural damping (viscous, on its sections and optionally on its mass). The
+/// sectional damping forces are `D ε̇` with `D = μ C + matrix` (C the section's stiffness);
+/// the mass-proportional part applies `α m v` and `α J ω` at the beam's nodes.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug, Default, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct BeamDamping {
+    /// Stiffness-proportional coefficient μ, s: `D = μ C`, a modal damping ratio `ζ = μ ω / 2`
+    /// for a mode at ω rad/s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stiffness_proportional: Option<f64>,
+    /// Instead of μ: the damping ratio ζ (e.g. 0.01 for 1 %) at `frequency`, Hz
+    /// (`μ = ζ / (π f)`; higher modes get proportionally more).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ratio: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frequency: Option<f64>,
+    /// A 6×6 sectional damping matrix, section frame, rows of N·s (forces) and N·m·s (moments)
+    /// per unit strain rate; symmetric positive semi-definite. Added to `μ C`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub matrix: Option<[[f64; 6]; 6]>,
+    /// Mass-proportional coefficient α, 1/s (`ζ = α / (2ω)`). It resists *absolute* velocity,
+    /// rigid motion included: use it only for structures on fixed supports.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass_proportional: Option<f64>,
+}
+
+impl BeamDamping {
+    /// The stiffness-proportional coefficient μ, s (from `ratio` and `frequency` if given so).
+    pub fn mu(&self) -> f64 {
+        match (self.stiffness_proportional, self.ratio, self.frequency) {
+            (Some(mu), _, _) => mu,
+            (None, Some(z), Some(f)) if f > 0.0 => z / (std::f64::consts::PI * f),
+            _ => 0.0,
+        }
+    }
+
+    /// The sectional damping matrix of a section of stiffness `c`, if any.
+    pub fn section_matrix(&self, c: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
+        let mu = self.mu();
+        if mu == 0.0 && self.matrix.is_none() {
+            return None;
+        }
+        let extra = self.matrix.unwrap_or([[0.0; 6]; 6]);
+        Some(std::array::from_fn(|i| {
+            std::array::from_fn(|j| mu * c[i][j] + extra[i][j])
+        }))
+    }
+}

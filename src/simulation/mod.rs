@@ -258,8 +258,32 @@ impl Simulation {
             n: lay.n_unknowns(),
             stiffness,
             mass,
+            damping: self.damping_matrix(),
             labels: self.unknown_labels(),
         }
+    }
+
+    /// The viscous damping matrix of the linearized equations, as triplets over the EP
+    /// layout: the beams' structural damping and the joints' dampers (N·s/m, N·m·s/rad).
+    fn damping_matrix(&self) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
+        let sys = &self.system;
+        let lay = sys.layout;
+        let mut out = (Vec::new(), Vec::new(), Vec::new());
+        for b in sys.beams.iter().filter(|b| b.is_damped()) {
+            let c = b.damping_matrix(&self.state);
+            let n = 6 * b.nodes.len();
+            let global = |l: usize| lay.node_delta(b.nodes[l / 6]) + l % 6;
+            for i in 0..n {
+                for j in 0..n {
+                    push_entry(&mut out, global(i), global(j), c[i * n + j]);
+                }
+            }
+        }
+        for sp in &sys.springs {
+            let d = lay.coord_delta(sp.coord);
+            push_entry(&mut out, d, d, sp.damping);
+        }
+        out
     }
 
     /// A label per unknown of the EP layout: `<node>.<x|y|z|rx|ry|rz>`, `coord:<name>`,
@@ -613,6 +637,8 @@ pub struct Linearization {
     /// The lumped mass matrix as `(rows, cols, values)` triplets (kg; kg·m² for rotations,
     /// body-frame inertia on the material rotation increments).
     pub mass: (Vec<usize>, Vec<usize>, Vec<f64>),
+    /// The viscous damping matrix as triplets (zero for an undamped model).
+    pub damping: (Vec<usize>, Vec<usize>, Vec<f64>),
     pub labels: Vec<String>,
 }
 

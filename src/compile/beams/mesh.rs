@@ -18,6 +18,8 @@ pub struct MeshedElement {
     pub nodes: Vec<usize>,
     pub points: Vec<GaussPoint>,
     pub history: Vec<f64>,
+    /// Mass-proportional damping per local node (`α m`, `α J`), empty if none.
+    pub mass_damping: Vec<(f64, M3<f64>)>,
 }
 
 /// A meshed beam: its elements and, per node along it, what distributed loads need.
@@ -75,17 +77,21 @@ pub fn mesh(b: &Beam, line: &ReferenceLine, start: V3<f64>, table: &mut NodeTabl
     let mut out = Vec::with_capacity(spans.len());
     for (e, &(seg, sa, sb)) in spans.iter().enumerate() {
         let el_nodes: Vec<usize> = (0..along.nn).map(|a| ids[e * b.order + a]).collect();
+        let alpha = b.damping.as_ref().and_then(|d| d.mass_proportional);
+        let mut mass_damping = Vec::new();
         for (a, &id) in el_nodes.iter().enumerate() {
             let s = along.node_s(e, a);
-            let section = section_at(b, length, s);
-            lump(
+            let (m, j) = lump(
                 &mut table.lumped,
                 id,
                 &table.states[id],
                 &line.section_triad(seg, s),
-                &section,
+                &section_at(b, length, s),
                 along.lumping[a] * (sb - sa),
             );
+            if let Some(alpha) = alpha.filter(|&a| a > 0.0) {
+                mass_damping.push((alpha * m, j.scale_f(alpha)));
+            }
         }
         let (points, history) =
             gauss_points(b, line, length, (seg, sa, sb), &el_nodes, &table.states);
@@ -94,6 +100,7 @@ pub fn mesh(b: &Beam, line: &ReferenceLine, start: V3<f64>, table: &mut NodeTabl
             nodes: el_nodes,
             points,
             history,
+            mass_damping,
         });
     }
     BeamMesh {
@@ -189,16 +196,26 @@ fn load_weights(b: &Beam, spans: &[(usize, f64, f64)]) -> Vec<f64> {
 }
 
 /// Adds a length `w` of `section` (at section triad `rs`) to node `id`'s lumped inertia,
-/// expressed in the node's own triad (a shared node's may differ).
-fn lump(lumped: &mut Lumped, id: usize, node: &NodeState, rs: &M3<f64>, section: &Section, w: f64) {
+/// expressed in the node's own triad (a shared node's may differ). Returns the mass and the
+/// rotary inertia (about the node, its triad) it added.
+fn lump(
+    lumped: &mut Lumped,
+    id: usize,
+    node: &NodeState,
+    rs: &M3<f64>,
+    section: &Section,
+    w: f64,
+) -> (f64, M3<f64>) {
     let m = w * section.mass_per_length();
     let q = node.r.transpose().mul_m(rs);
+    let j = q
+        .mul_m(&section.inertia_per_length())
+        .mul_m(&q.transpose())
+        .scale_f(w);
     lumped.mass[id] += m;
     lumped.first_moment[id] += q.mul_v(&section.cm_offset()).scale_f(m);
-    lumped.inertia[id] = lumped.inertia[id]
-        + q.mul_m(&section.inertia_per_length())
-            .mul_m(&q.transpose())
-            .scale_f(w);
+    lumped.inertia[id] = lumped.inertia[id] + j;
+    (m, j)
 }
 
 /// An element's Gauss points (reduced integration) with their sections, reference strains
@@ -235,12 +252,17 @@ fn gauss_points(
         let mut hist = [0.0; HISTORY_PER_POINT];
         write_history(&mut hist, &rg, &k0);
         history.extend_from_slice(&hist);
+        let stiffness = section_at(b, length, s).stiffness;
         points.push(GaussPoint {
             xi,
             weight: wq * jac,
             h,
             dh,
-            stiffness: section_at(b, length, s).stiffness,
+            damping: b
+                .damping
+                .as_ref()
+                .and_then(|d| d.section_matrix(&stiffness)),
+            stiffness,
             e0,
             k0,
         });

@@ -99,6 +99,7 @@ pub fn check(model: &Model, c: &mut Checker) {
         check_ends(model, b, c, &p);
         check_mesh(b, c, &p);
         check_sections(b, c, &p);
+        check_damping(b, c, &p);
         check_line(b, c, &p);
         // The line itself (arc in its plane and reaching the end, no folds, no repeated
         // points), once its end points are known.
@@ -198,6 +199,51 @@ fn check_sections(b: &Beam, c: &mut Checker, p: &str) {
             for (k, st) in b.sections.iter().enumerate() {
                 check_section(c, format!("{p}.sections[{k}].section"), &st.section);
             }
+        }
+    }
+}
+
+/// Structural damping: coefficients finite and ≥ 0, μ given once (directly or as a ratio at a
+/// frequency), the matrix symmetric positive semi-definite.
+fn check_damping(b: &Beam, c: &mut Checker, p: &str) {
+    let Some(d) = &b.damping else { return };
+    let name = &b.name;
+    let mut bad = |field: &str, msg: &str| {
+        c.err(
+            format!("{p}.damping.{field}"),
+            format!("beam `{name}`: {msg}"),
+        )
+    };
+    for (field, v) in [
+        ("stiffness_proportional", d.stiffness_proportional),
+        ("ratio", d.ratio),
+        ("mass_proportional", d.mass_proportional),
+    ] {
+        if v.is_some_and(|v| !(v.is_finite() && v >= 0.0)) {
+            bad(field, "must be a finite number ≥ 0");
+        }
+    }
+    match (d.stiffness_proportional, d.ratio, d.frequency) {
+        (Some(_), Some(_), _) => bad(
+            "ratio",
+            "give either `stiffness_proportional` (μ, s) or `ratio` with `frequency`, not both",
+        ),
+        (_, Some(_), None) => bad(
+            "frequency",
+            "`ratio` needs the `frequency` (Hz) at which it holds",
+        ),
+        (_, None, Some(_)) => bad(
+            "frequency",
+            "`frequency` goes with a damping `ratio`; give both, or `stiffness_proportional`",
+        ),
+        (_, _, Some(f)) if !(f.is_finite() && f > 0.0) => {
+            bad("frequency", "must be a finite frequency > 0, Hz")
+        }
+        _ => {}
+    }
+    if let Some(m) = &d.matrix {
+        if let Err(e) = crate::beam::section::check_semidefinite(m) {
+            bad("matrix", &e);
         }
     }
 }
@@ -331,13 +377,9 @@ pub fn elements(meshed: &mut [Meshed], layout: &Layout) -> (Vec<BeamElement>, Ve
     let mut history = Vec::new();
     let mut elements = Vec::new();
     for e in meshed.iter_mut().flat_map(|m| m.mesh.elements.drain(..)) {
-        elements.push(BeamElement::new(
-            e.name,
-            e.nodes,
-            e.points,
-            history.len(),
-            layout,
-        ));
+        let mut element = BeamElement::new(e.name, e.nodes, e.points, history.len(), layout);
+        element.mass_damping = e.mass_damping;
+        elements.push(element);
         history.extend_from_slice(&e.history);
     }
     (elements, history)
