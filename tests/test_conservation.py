@@ -1,11 +1,15 @@
 """Invariants of the EP and ED schemes on conservative rigid-body systems (issue 2)."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 import flexdyn as fd
 
 from conftest import angular_momentum, track
+
+ROOT = Path(__file__).resolve().parent.parent
 
 J_FREE = np.diag([1.0, 2.0, 3.0])
 
@@ -102,3 +106,23 @@ def test_ed_energy_never_increases_and_loss_is_the_jump_energy(model):
     assert res.attrs["stats"]["max_energy_defect"] < 1e-11 * scale
     # The sparsity pattern detected at set-up held for every assembly.
     assert res.attrs["stats"]["pattern_misses"] == 0
+
+
+@pytest.mark.parametrize("scheme", ["ed", "ep"])
+def test_the_energy_balance_at_default_settings_is_the_newton_tolerance_not_a_drift(scheme):
+    """The README's statement of `energy.balance`: each step's identity holds to the Newton
+    tolerance, so at default settings the balance stays ≤ 1e-10 of the energy over tens of
+    thousands of steps (heavy top, 20 s: ED 1.3e-7 J in 28 000 steps, EP 1.5e-10 J of 5.4 kJ),
+    and a tighter tolerance brings it down (ED at 1e-12: 2.3e-9 J)."""
+    def run(**tol):
+        m = fd.load(ROOT / "examples" / "heavy_top.yaml")
+        m.data["simulation"] = {}
+        m.simulation(scheme=scheme, t_end=20.0, **tol)  # default steps and tolerances
+        res = fd.simulate(m)
+        return np.abs(res["energy.balance"].values).max(), res["energy.total"].values[0]
+
+    balance, energy = run()
+    assert balance < 1e-10 * energy
+    if scheme == "ed":
+        tight, _ = run(newton_tol=1e-12)
+        assert tight < balance / 10
