@@ -124,6 +124,23 @@ impl Channels {
         }
     }
 
+    /// Former spellings `(current, old)` of sensor `sensor`'s channels just added, kept as
+    /// channels reading the same (node_displacement and node_rotation were `.x .y .z`; one
+    /// scheme now: positions `x`, displacements `ux`, rotations `rx`). They go in 0.3.
+    fn alias(&mut self, sensor: &str, pairs: &[(&str, &str)]) {
+        for (current, old) in pairs {
+            let wanted = format!("{sensor}.{current}");
+            let k = self
+                .names
+                .iter()
+                .rposition(|n| *n == wanted)
+                .expect("just added");
+            self.names.push(format!("{sensor}.{old}"));
+            self.units.push(self.units[k]);
+            self.sources.push(self.sources[k].clone());
+        }
+    }
+
     /// Of the channels from `first` on (one sensor's), keeps only `<name>.<comp>`, renamed
     /// `<name>`.
     fn keep_only(&mut self, first: usize, name: &str, comp: &str) -> Result<(), String> {
@@ -217,20 +234,19 @@ impl Channels {
                 &["m"],
                 Source::Relative(node(n), node(reference)),
             ),
-            Sensor::NodeDisplacement { node: n, .. } => self.add(
-                name,
-                &["x", "y", "z"],
-                &["m"],
-                Source::Displacement(node(n)),
-            ),
-            Sensor::NodeRotation { node: n, .. } => self.add(
-                name,
-                &[
-                    "x", "y", "z", "R11", "R12", "R13", "R21", "R22", "R23", "R31", "R32", "R33",
-                ],
-                &["rad", "rad", "rad", "1"],
-                Source::Rotation(node(n)),
-            ),
+            Sensor::NodeDisplacement { node: n, .. } => {
+                let src = Source::Displacement(node(n));
+                self.add(name, &["ux", "uy", "uz"], &["m"], src);
+                self.alias(name, &[("ux", "x"), ("uy", "y"), ("uz", "z")]);
+            }
+            Sensor::NodeRotation { node: n, .. } => {
+                let comps = [
+                    "rx", "ry", "rz", "R11", "R12", "R13", "R21", "R22", "R23", "R31", "R32", "R33",
+                ];
+                let src = Source::Rotation(node(n));
+                self.add(name, &comps, &["rad", "rad", "rad", "1"], src);
+                self.alias(name, &[("rx", "x"), ("ry", "y"), ("rz", "z")]);
+            }
             Sensor::NodeVelocity { node: n, .. } => self.add(
                 name,
                 &["vx", "vy", "vz", "wx", "wy", "wz"],

@@ -114,6 +114,7 @@ def test_the_energy_balance_at_default_settings_is_the_newton_tolerance_not_a_dr
     tolerance, so at default settings the balance stays ≤ 1e-10 of the energy over tens of
     thousands of steps (heavy top, 20 s: ED 1.3e-7 J in 28 000 steps, EP 1.5e-10 J of 5.4 kJ),
     and a tighter tolerance brings it down (ED at 1e-12: 2.3e-9 J)."""
+
     def run(**tol):
         m = fd.load(ROOT / "examples" / "heavy_top.yaml")
         m.data["simulation"] = {}

@@ -163,6 +163,7 @@ fn assemble(
         ),
         layout,
         node_names: placed.table.names,
+        node_aliases: placed.table.aliases,
         coord_names: rows.coord_names,
         row_names: kernels.row_names,
         beams,

@@ -67,6 +67,8 @@ pub struct NodeTable {
     /// The steady spin the node was given, if any.
     pub spin: Vec<Option<SteadySpin>>,
     pub lumped: Lumped,
+    /// Other names of nodes (`<beam>.start`, `<beam>.end`) and the nodes they name.
+    pub aliases: Vec<(String, usize)>,
     index: HashMap<String, usize>,
 }
 
@@ -115,6 +117,13 @@ impl NodeTable {
         let cm = self.push(name, state, self.velocity_given[a]);
         self.spin[cm] = self.spin[a];
         cm
+    }
+
+    /// Makes `alias` another name of node `target` (a beam's `<beam>.start` / `.end`).
+    pub fn alias(&mut self, alias: String, target: &str) {
+        let a = self.index(target);
+        self.index.insert(alias.clone(), a);
+        self.aliases.push((alias, a));
     }
 
     /// Index of a named node (validated names always have one).

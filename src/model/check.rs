@@ -98,23 +98,43 @@ impl Checker {
     }
 }
 
-/// The node names a model defines: its `nodes` and its beams' nodes `<beam>.k` (shared end
-/// nodes keep their own names).
-pub struct NodeNames(HashSet<String>);
+/// The node names a model defines: its `nodes`, its beams' nodes `<beam>.k` (shared end
+/// nodes keep their own names) and the aliases `<beam>.start`, `<beam>.end`; and per beam
+/// its name and node count, to say which names a beam has.
+pub struct NodeNames {
+    names: HashSet<String>,
+    beams: Vec<(String, usize)>,
+}
 
 impl NodeNames {
     pub fn of(model: &Model) -> NodeNames {
         let mut names: HashSet<String> = model.nodes.iter().map(|n| n.name.clone()).collect();
+        let mut beams = Vec::new();
         for b in &model.beams {
             if (1..=3).contains(&b.order) && b.elements >= 1 {
                 names.extend((0..b.node_count()).map(|k| b.node_name(k)));
+                names.extend(b.end_aliases().into_iter().map(|(alias, _)| alias));
+                beams.push((b.name.clone(), b.node_count()));
             }
         }
-        NodeNames(names)
+        NodeNames { names, beams }
     }
 
     pub fn contains(&self, n: &str) -> bool {
-        self.0.contains(n)
+        self.names.contains(n)
+    }
+
+    /// Why `n` names no node: the nodes of the beam it names or seems to name, else that it
+    /// is not among `nodes`.
+    fn unknown(&self, n: &str) -> String {
+        let beam = n.split_once('.').map_or(n, |(b, _)| b);
+        match self.beams.iter().find(|(b, _)| b == beam) {
+            Some((b, count)) => format!(
+                "refers to node `{n}`, which beam `{b}` does not have: its nodes are `{b}.0` … `{b}.{}` (`{b}.start`, `{b}.end`)",
+                count - 1
+            ),
+            None => format!("refers to node `{n}`, which is not defined in `nodes` nor a beam's node"),
+        }
     }
 
     /// Reports `n` at `path` unless it names a node (or, where allowed, `ground`).
@@ -124,10 +144,7 @@ impl NodeNames {
                 c.err(path, "cannot be `ground` here; give a node name");
             }
         } else if !self.contains(n) {
-            c.err(
-                path,
-                format!("refers to node `{n}`, which is not defined in `nodes`"),
-            );
+            c.err(path, self.unknown(n));
         }
     }
 }

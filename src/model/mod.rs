@@ -247,6 +247,18 @@ impl Beam {
     pub fn node_count(&self) -> usize {
         self.elements * self.order + 1
     }
+    /// The names `<beam>.start` and `<beam>.end` with the end nodes they stand for (which
+    /// may be shared nodes with their own names).
+    pub fn end_aliases(&self) -> [(String, String); 2] {
+        [
+            (format!("{}.start", self.name), self.node_name(0)),
+            (
+                format!("{}.end", self.name),
+                self.node_name(self.node_count() - 1),
+            ),
+        ]
+    }
+
     /// Name of the k-th node along the beam (a shared end node keeps its own name).
     pub fn node_name(&self, k: usize) -> String {
         let last = self.node_count() - 1;
@@ -853,7 +865,8 @@ pub enum Sensor {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         component: Option<String>,
     },
-    /// Displacement from the initial position: `.x .y .z`, m.
+    /// Displacement from the initial position: `.ux .uy .uz`, m, inertial (`.x .y .z`, the
+    /// former names, read the same until 0.3).
     NodeDisplacement {
         name: String,
         node: String,
@@ -861,8 +874,8 @@ pub enum Sensor {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         component: Option<String>,
     },
-    /// Rotation vector from the initial orientation `.x .y .z` (rad) and the triad matrix
-    /// entries `.R11` … `.R33`.
+    /// Rotation vector from the initial orientation `.rx .ry .rz` (rad, inertial; `.x .y .z`
+    /// until 0.3) and the triad matrix entries `.R11` … `.R33`.
     NodeRotation {
         name: String,
         node: String,

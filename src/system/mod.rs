@@ -86,6 +86,8 @@ pub struct System {
     pub name: String,
     pub layout: Layout,
     pub node_names: Vec<String>,
+    /// Other names of nodes: a beam's `<beam>.start` and `<beam>.end`.
+    pub node_aliases: Vec<(String, usize)>,
     pub coord_names: Vec<String>,
     /// Per constraint row: the owning item's name and its local row.
     pub row_names: Vec<(String, usize)>,
@@ -122,8 +124,14 @@ pub struct System {
 }
 
 impl System {
+    /// The node a name (or an alias) names.
     pub fn node_index(&self, name: &str) -> Option<usize> {
-        self.node_names.iter().position(|n| n == name)
+        self.node_names.iter().position(|n| n == name).or_else(|| {
+            self.node_aliases
+                .iter()
+                .find(|(alias, _)| alias == name)
+                .map(|&(_, a)| a)
+        })
     }
 
     pub fn joint(&self, name: &str) -> Option<&JointInfo> {

@@ -133,7 +133,7 @@ fn check_ends(model: &Model, b: &Beam, c: &mut Checker, p: &str) {
                 if !model.nodes.iter().any(|x| &x.name == n) {
                     c.err(
                         format!("{p}.{field}_node"),
-                        format!("refers to node `{n}`, which is not defined in `nodes`"),
+                        format!("refers to node `{n}`, which is not defined in `nodes` (a beam's ends can be nodes of `nodes`, which other beams may share, not another beam's own nodes)"),
                     );
                 }
             }
@@ -306,6 +306,9 @@ pub fn mesh_all(model: &Model, table: &mut NodeTable) -> Vec<Meshed> {
             let line = reference_line(b, start, end).expect("validated geometry");
             let before = table.lumped.clone();
             let mesh = mesh::mesh(b, &line, start, table);
+            for (alias, target) in b.end_aliases() {
+                table.alias(alias, &target);
+            }
             let inertia = own_share(&before, &table.lumped);
             Meshed {
                 mesh,

@@ -226,15 +226,20 @@ impl Placement {
     }
 }
 
-/// A right-handed triad whose third unit vector is `e3`.
+/// The joint frame of an axis: a right-handed triad whose third unit vector is along `e3`
+/// (the reaction sensor's axes 1, 2, 3). Axis 1 is horizontal, `ẑ × e3` (so axis 2 points up
+/// and joints patterned about z, like the pitch bearings of a rotor's blades, have patterned
+/// frames), for axes within 45° of horizontal; for steeper axes it is x̂ projected normal to
+/// the axis (x̂, ŷ, ẑ for a joint about +z, as in a planar mechanism). Continuous except at
+/// 45° elevation, where the two rules meet.
 pub fn triad_from_axis(e3: V3<f64>) -> M3<f64> {
     let e3 = e3.scale_f(1.0 / e3.norm());
-    let trial = if e3.0[0].abs() < 0.9 {
-        V3([1.0, 0.0, 0.0])
+    let e1 = if e3.0[2].abs() <= std::f64::consts::FRAC_1_SQRT_2 {
+        V3([0.0, 0.0, 1.0]).cross(&e3)
     } else {
-        V3([0.0, 1.0, 0.0])
+        let x = V3([1.0, 0.0, 0.0]);
+        x - e3.scale_f(x.dot(&e3))
     };
-    let e1 = trial - e3.scale_f(trial.dot(&e3));
     let e1 = e1.scale_f(1.0 / e1.norm());
     M3::from_cols(e1, e3.cross(&e1), e3)
 }
