@@ -6,5 +6,6 @@ pub mod geometry;
 pub mod line_load;
 pub mod path;
 pub mod section;
+pub mod section_shapes;
 pub mod shape;
 mod tangent;

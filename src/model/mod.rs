@@ -11,7 +11,9 @@ mod section;
 
 pub use check::{ModelError, ModelErrors};
 pub use load::{parse_json, parse_yaml};
-pub use section::{BeamDamping, Matrices, SectionSpec, Shorthand};
+pub use section::{
+    BeamDamping, MaterialShape, MaterialSpec, Matrices, SectionSpec, ShapeSpec, Shorthand,
+};
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};

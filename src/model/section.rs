@@ -47,12 +47,66 @@ pub struct Matrices {
     pub mass: [[f64; 6]; 6],
 }
 
-/// A beam's `section:`: the shorthand (`ea`, `ga2`, …), or full `stiffness` and `mass`
-/// matrices.
+/// An isotropic material.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Copy, Debug, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    /// Young's modulus, Pa.
+    #[serde(rename = "E")]
+    pub e: f64,
+    /// Shear modulus, Pa.
+    #[serde(rename = "G")]
+    pub g: f64,
+    /// Density, kg/m³.
+    pub density: f64,
+}
+
+/// A cross-section shape, dimensions in m; `width` runs along the section's axis 2 and
+/// `height` along axis 3 (up, for a horizontal beam).
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Copy, Debug, PartialEq)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum ShapeSpec {
+    Rectangle {
+        width: f64,
+        height: f64,
+    },
+    Circle {
+        diameter: f64,
+    },
+    Tube {
+        diameter: f64,
+        wall: f64,
+    },
+    Box {
+        width: f64,
+        height: f64,
+        wall: f64,
+    },
+    /// Flanges `width` × `flange` thick, total `height`, web `web` thick (strong about axis 2).
+    IBeam {
+        width: f64,
+        height: f64,
+        flange: f64,
+        web: f64,
+    },
+}
+
+/// A section from a material and a shape: `{material: {E, G, density}, shape: {tube:
+/// {diameter, wall}}}`.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Copy, Debug, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialShape {
+    pub material: MaterialSpec,
+    pub shape: ShapeSpec,
+}
+
+/// A beam's `section:`: the shorthand (`ea`, `ga2`, …), full `stiffness` and `mass`
+/// matrices, or a `material` and `shape`.
 #[derive(Serialize, JsonSchema, Clone, Debug, PartialEq)]
 #[serde(untagged)]
 pub enum SectionSpec {
     Matrices(Matrices),
+    MaterialShape(MaterialShape),
     Shorthand(Shorthand),
 }
 
@@ -63,7 +117,11 @@ impl<'de> Deserialize<'de> for SectionSpec {
         use serde::de::Error;
         let v = serde_json::Value::deserialize(d)?;
         let full = v.get("stiffness").is_some() || v.get("mass").is_some();
-        if full {
+        if v.get("material").is_some() || v.get("shape").is_some() {
+            serde_json::from_value(v)
+                .map(SectionSpec::MaterialShape)
+                .map_err(D::Error::custom)
+        } else if full {
             serde_json::from_value(v)
                 .map(SectionSpec::Matrices)
                 .map_err(D::Error::custom)

@@ -12,7 +12,7 @@ use crate::beam::section::{Section, SectionProperties};
 use crate::math::layout::Layout;
 use crate::math::vec3::{M3, V3};
 use crate::model::check::Checker;
-use crate::model::{Beam, Model, SectionSpec, Shorthand};
+use crate::model::{Beam, MaterialShape, Model, SectionSpec, ShapeSpec, Shorthand};
 use crate::system::{BeamInfo, BeamNodeInertia};
 
 /// The physics' section of a model section.
@@ -20,7 +20,52 @@ pub fn section_of(spec: &SectionSpec) -> Result<Section, String> {
     match spec {
         SectionSpec::Shorthand(s) => Section::from_properties(&properties(s)),
         SectionSpec::Matrices(m) => Section::from_matrices(m.stiffness, m.mass),
+        SectionSpec::MaterialShape(ms) => Section::from_properties(&material_shape(ms)?),
     }
+}
+
+/// The engineering properties of a material and shape (checked).
+pub fn material_shape(ms: &MaterialShape) -> Result<SectionProperties, String> {
+    use crate::beam::section_shapes::{properties, Material, Shape};
+    let m = &ms.material;
+    if ![m.e, m.g, m.density]
+        .iter()
+        .all(|v| v.is_finite() && *v > 0.0)
+    {
+        return Err("material: E, G (Pa) and density (kg/m³) must be finite and > 0".into());
+    }
+    let shape = match ms.shape {
+        ShapeSpec::Rectangle { width, height } => Shape::Rectangle { width, height },
+        ShapeSpec::Circle { diameter } => Shape::Circle { diameter },
+        ShapeSpec::Tube { diameter, wall } => Shape::Tube { diameter, wall },
+        ShapeSpec::Box {
+            width,
+            height,
+            wall,
+        } => Shape::Box {
+            width,
+            height,
+            wall,
+        },
+        ShapeSpec::IBeam {
+            width,
+            height,
+            flange,
+            web,
+        } => Shape::IBeam {
+            width,
+            height,
+            flange,
+            web,
+        },
+    };
+    shape.check().map_err(|e| format!("shape: {e}"))?;
+    let material = Material {
+        e: m.e,
+        g: m.g,
+        rho: m.density,
+    };
+    Ok(properties(&material, &shape))
 }
 
 fn properties(s: &Shorthand) -> SectionProperties {
