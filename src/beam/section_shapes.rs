@@ -87,7 +87,15 @@ impl Shape {
         }
     }
 
+    /// Area, second moments, torsion constant and shear areas (ν for Cowper's coefficients).
     fn geometry(&self, nu: f64) -> Geometry {
+        match *self {
+            Shape::Box { .. } | Shape::IBeam { .. } => self.walled(),
+            _ => self.solid_or_round(nu),
+        }
+    }
+
+    fn solid_or_round(&self, nu: f64) -> Geometry {
         use std::f64::consts::PI;
         match *self {
             Shape::Rectangle {
@@ -142,6 +150,12 @@ impl Shape {
                     shear3: k * area,
                 }
             }
+            _ => unreachable!("walled shapes"),
+        }
+    }
+
+    fn walled(&self) -> Geometry {
+        match *self {
             Shape::Box {
                 width: b,
                 height: h,
@@ -175,6 +189,7 @@ impl Shape {
                     shear3: h * tw,
                 }
             }
+            _ => unreachable!("solid shapes"),
         }
     }
 }
