@@ -117,19 +117,13 @@ impl Shape {
                     shear3: k * b * h,
                 }
             }
-            Shape::Circle { diameter: d } => {
-                let i = PI * d.powi(4) / 64.0;
-                let k = 6.0 * (1.0 + nu) / (7.0 + 6.0 * nu); // Cowper
-                let area = PI * d * d / 4.0;
-                Geometry {
-                    area,
-                    i2: i,
-                    i3: i,
-                    j: 2.0 * i,
-                    shear2: k * area,
-                    shear3: k * area,
-                }
+            // A solid circle is a tube with no bore (Cowper's hollow formula at m = 0 is the
+            // solid one).
+            Shape::Circle { diameter: d } => Shape::Tube {
+                diameter: d,
+                wall: 0.5 * d,
             }
+            .geometry(nu),
             Shape::Tube {
                 diameter: d,
                 wall: t,
