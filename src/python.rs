@@ -109,6 +109,17 @@ fn parse_json(text: &str) -> PyResult<String> {
     })
 }
 
+/// Validates JSON model text; returns the canonical JSON of the model with its patterns
+/// expanded and every node and beam given in the inertial frame.
+#[pyfunction]
+fn expand_json(text: &str) -> PyResult<String> {
+    guarded("expanding the model", || {
+        let m = crate::compile::from_json_str(text).map_err(model_err)?;
+        let flat = m.flattened().map_err(model_err)?;
+        Ok(serde_json::to_string(&flat).expect("model serialises"))
+    })
+}
+
 /// Panics on purpose, to test that a panic reaches Python as `FlexdynError`.
 #[pyfunction]
 fn _panic_for_test() -> PyResult<()> {
@@ -412,6 +423,7 @@ impl PySimulation {
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(parse_yaml, m)?)?;
     m.add_function(wrap_pyfunction!(parse_json, m)?)?;
+    m.add_function(wrap_pyfunction!(expand_json, m)?)?;
     m.add_function(wrap_pyfunction!(schema, m)?)?;
     m.add_function(wrap_pyfunction!(_panic_for_test, m)?)?;
     install_panic_hook();

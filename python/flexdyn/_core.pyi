@@ -22,6 +22,10 @@ def parse_yaml(text: str) -> str:
 def parse_json(text: str) -> str:
     """Validates JSON model text (what the builder produces); returns its canonical JSON."""
 
+def expand_json(text: str) -> str:
+    """Validates JSON model text; returns the canonical JSON of the model with its patterns
+    expanded and every node and beam given in the inertial frame."""
+
 def schema() -> str:
     """The JSON Schema of model files."""
 

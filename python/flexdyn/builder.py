@@ -133,10 +133,12 @@ class Model:
         angular_velocity: Vec3 | None = None,
         rotation_vector: Vec3 | None = None,
         matrix: Sequence[Vec3] | None = None,
+        frame: str | None = None,
     ) -> Model:
         """A node (point with a triad) at `position`, m. Velocities (m/s, rad/s) in the
         inertial frame; its `orientation:` as a `rotation_vector` (rad) or a `matrix` whose
-        columns are the triad's unit vectors."""
+        columns are the triad's unit vectors. With `frame="hub"` all of these are given in
+        node `hub`'s initial frame (position relative to it, vectors in its triad)."""
         orientation = _drop_none(
             {
                 "rotation_vector": _vec(rotation_vector) if rotation_vector is not None else None,
@@ -151,6 +153,7 @@ class Model:
                     "orientation": orientation or None,
                     "velocity": _vec(velocity) if velocity is not None else None,
                     "angular_velocity": _vec(angular_velocity) if angular_velocity is not None else None,
+                    "frame": frame,
                 }
             )
         )
@@ -206,6 +209,7 @@ class Model:
         velocity: Vec3 | None = None,
         angular_velocity: Vec3 | None = None,
         damping: Mapping[str, Any] | None = None,
+        frame: str | None = None,
     ) -> Model:
         """A geometrically exact beam from `start` to `end` (or shared `start_node` /
         `end_node`), meshed with `elements` elements of `order` 1, 2 or 3; its nodes are named
@@ -222,6 +226,8 @@ class Model:
           12 Hz, stiffness-proportional), `{"stiffness_proportional": μ}` (s), a sectional
           `{"matrix": 6×6}` (N·s), and/or `{"mass_proportional": α}` (1/s; damps rigid motion
           too). See docs/damping.md.
+        - `frame`: a node in whose initial frame the geometry is given (points relative to it,
+          directions in its triad; the default `e2` follows the default rule in that frame).
         """
         num = _vec
         self.data["beams"].append(
@@ -246,6 +252,7 @@ class Model:
                     "velocity": _vec(velocity) if velocity is not None else None,
                     "angular_velocity": _vec(angular_velocity) if angular_velocity is not None else None,
                     "damping": num(damping) if damping is not None else None,
+                    "frame": frame,
                 }
             )
         )
@@ -500,6 +507,35 @@ class Model:
         )
         return self
 
+    def pattern(
+        self,
+        name: str,
+        count: int,
+        axis: Vec3,
+        center: Vec3 = (0.0, 0.0, 0.0),
+        step: float | None = None,
+    ) -> Pattern:
+        """An item of `patterns:`: the items added to the returned pattern are copied `count`
+        times, copy i (1 … count) turned by (i − 1)·`step` rad (default 2π/count) about the
+        `axis` through `center`. Write `{i}` in every name (and wherever the copy's number
+        belongs: references, expressions). Use it as a context manager or keep the object:
+
+            with m.pattern("rotor", count=3, axis=[0, 0, 1]) as blade:
+                blade.beam("blade{i}", [0.5, 0, 0], [5, 0, 0], elements=4, section=s)
+                blade.clamp("root{i}", "hub", "blade{i}.start")
+        """
+        entry = _drop_none(
+            {
+                "name": name,
+                "count": count,
+                "axis": _vec(axis),
+                "center": _vec(center),
+                "step": step,
+            }
+        )
+        self.data.setdefault("patterns", []).append(entry)
+        return Pattern(entry)
+
     def force(
         self, name: str, node: str, value: Vec3, scale: Function | None = None, follower: bool = False
     ) -> Model:
@@ -595,6 +631,12 @@ class Model:
         _core.parse_json(self.to_json())
         return self
 
+    def expanded(self) -> Model:
+        """The model as the solver sees it: patterns expanded into their copies (`{i}`
+        replaced), nodes and beams given in a node's frame placed in the inertial frame, and
+        the default section axis of every copied beam written out."""
+        return Model.from_dict(json.loads(_core.expand_json(self.to_json())))
+
     def to_yaml(self, path: str | Path | None = None) -> str:
         """The model as a YAML model file (validated first; what was given, defaults left
         out; short lists on one line)."""
@@ -622,6 +664,35 @@ class Model:
             f"{len(d.get('beams', []))} beams, "
             f"{len(d['joints'])} joints, {len(d['sensors'])} sensors)"
         )
+
+
+class Pattern(Model):
+    """The items of one pattern (see `Model.pattern`): built with the model's item methods
+    (node, body, beam, joints, loads, sensors, initial_spin)."""
+
+    def __init__(self, entry: dict):
+        for key in ("nodes", "bodies", "beams", "joints", "loads", "sensors"):
+            entry.setdefault(key, [])
+        self.data = entry
+
+    def __enter__(self) -> Pattern:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        return None
+
+    def _whole_model_only(self, what: str):
+        raise TypeError(f"{what} belongs to the model, not to pattern `{self.data['name']}`")
+
+    def simulation(self, **fields) -> Model:
+        self._whole_model_only("simulation()")
+
+    def pattern(self, *args, **kwargs) -> Pattern:
+        self._whole_model_only("pattern() (patterns do not nest)")
+
+    def __repr__(self) -> str:
+        d = self.data
+        return f"Pattern({d['name']!r}: {d['count']} copies of {len(d['nodes'])} nodes, {len(d['beams'])} beams, {len(d['joints'])} joints)"
 
 
 #: Largest model file read, bytes (a model is text; anything larger is a mistake).

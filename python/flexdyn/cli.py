@@ -1,5 +1,6 @@
 """The `flexdyn` command: run a model (dynamic or static), plot and compare results, describe or
-check a model, list its natural frequencies, or print the model-file schema."""
+check a model, expand its patterns, list its natural frequencies, or print the model-file
+schema."""
 
 from __future__ import annotations
 
@@ -147,6 +148,15 @@ def _with(args, **fields):
     return args
 
 
+def _expand(args) -> int:
+    from .builder import load
+
+    text = load(args.model).expanded().to_yaml(args.output)
+    if not args.output:
+        print(text, end="")
+    return 0
+
+
 def _plot_split(args) -> int:
     """`flexdyn plot A.nc [B.nc …] CHANNEL …`: the leading arguments ending in .nc are files."""
     files = [a for a in args.results if a.endswith(".nc")]
@@ -213,6 +223,12 @@ def main(argv=None) -> int:
     cp.add_argument("--labels", nargs="+")
     cp.add_argument("--title")
     cp.set_defaults(func=lambda a: _plot(_with(a, sensors=a.sensors)))
+    e = sub.add_parser(
+        "expand", help="print a model file with its patterns expanded and frames placed (YAML)"
+    )
+    e.add_argument("model")
+    e.add_argument("-o", "--output", help="write the expanded model to this file instead")
+    e.set_defaults(func=_expand)
     s = sub.add_parser("schema", help="print the JSON Schema of model files")
     s.set_defaults(func=lambda a: print(_core.schema()) or 0)
     args = p.parse_args(argv)

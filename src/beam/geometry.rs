@@ -7,6 +7,7 @@
 //! section frame is `R(s) = F(s) R₁(θ(s))` with θ the pre-twist angle about axis 1, so its
 //! material curvature is `k₀ = R₁(θ)ᵀ Fᵀ F′ + θ′ e₁` (eq. (1)'s reference curvature).
 
+pub use crate::math::default_axes::default_e2;
 use crate::math::rotation::exp_map;
 use crate::math::vec3::{M3, V3};
 
@@ -250,20 +251,6 @@ fn start_frame(t: V3<f64>, e2_hint: Option<V3<f64>>) -> Result<M3<f64>, String> 
     }
     let e2 = e2.scale_f(1.0 / e2.norm());
     Ok(M3::from_cols(t, e2, t.cross(&e2)))
-}
-
-/// The default section axis 2 of a beam along `t`: `ẑ × t`, horizontal, so that axis 3
-/// (`t × e₂`) lies in the vertical plane through the beam on the +z side — for a horizontal beam
-/// it is +z. It turns continuously with the beam's direction (identical blades patterned about
-/// z get identical frames); a vertical beam, where `ẑ × t` vanishes, takes +y (the limit of a
-/// beam tilted from the vertical towards +x).
-pub fn default_e2(t: V3<f64>) -> V3<f64> {
-    let h = V3([0.0, 0.0, 1.0]).cross(&t);
-    if h.norm() > 1e-6 * t.norm() {
-        h
-    } else {
-        V3([0.0, 1.0, 0.0])
-    }
 }
 
 /// A circular arc from `start` about `axis` through `center` by `angle`, which must end at

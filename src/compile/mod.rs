@@ -46,8 +46,15 @@ pub fn from_json_str(text: &str) -> Result<Model, ModelErrors> {
     Ok(model)
 }
 
-/// Checks references, physical admissibility and settings; returns every problem found.
+/// Checks references, physical admissibility and settings; returns every problem found (with
+/// the paths the user wrote, for items a pattern copied).
 pub fn validate(model: &Model) -> Result<(), ModelErrors> {
+    let flat = model.flattened()?;
+    validate_flat(&flat).map_err(|e| e.located(&flat))
+}
+
+/// [`validate`] on a flattened model.
+fn validate_flat(model: &Model) -> Result<(), ModelErrors> {
     let mut c = Checker::default();
     // Size first: a model over the limits is refused before its mesh is even named.
     settings::check_size(model, &mut c);
@@ -76,8 +83,10 @@ pub fn system(model: &Model) -> Result<System, ModelErrors> {
 /// Checks `model` and compiles it for `scheme`: nodes (the model's, the beams', internal
 /// centre-of-mass ones), then coordinates and rows, then the kernels on the layout.
 pub fn compile(model: &Model, scheme: Scheme) -> Result<System, ModelErrors> {
-    validate(model)?;
-    let one = |e: ModelError| ModelErrors::one(e);
+    let flat = model.flattened()?;
+    let model = &flat;
+    validate_flat(model).map_err(|e| e.located(model))?;
+    let one = |e: ModelError| ModelErrors::one(e).located(model);
     let placed = place(model).map_err(one)?;
     let rows = number_rows(model, &placed).map_err(one)?;
     assemble(model, scheme, placed, rows).map_err(one)

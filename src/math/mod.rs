@@ -2,6 +2,7 @@
 //! rotations, functions of time (with the plain-data specs the file format reads them from),
 //! and the numbering of a step's unknowns. It imports nothing else from the crate; the kernels
 //! (beams, joints, elements), the compiler and the file format build on it.
+pub mod default_axes;
 pub mod layout;
 pub mod rotation;
 pub mod scalar;

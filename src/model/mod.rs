@@ -6,11 +6,15 @@
 //! very types.
 
 pub mod check;
+mod flatten;
 mod load;
+mod pattern;
+pub mod placement;
 mod section;
 
 pub use check::{ModelError, ModelErrors};
 pub use load::{parse_json, parse_yaml};
+pub use pattern::{Pattern, MAX_PATTERN_COPIES};
 pub use section::{
     BeamDamping, MaterialShape, MaterialSpec, Matrices, SectionSpec, ShapeSpec, Shorthand,
 };
@@ -48,8 +52,15 @@ pub struct Model {
     /// Initial rigid-body spins of groups of items (a rotor turning from t = 0).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub initial_spins: Vec<InitialSpin>,
+    /// Groups of items copied turn by turn about an axis (the blades of a rotor).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub patterns: Vec<Pattern>,
     #[serde(default)]
     pub simulation: SimulationSettings,
+    /// Where each item of a flattened model came from (see [`Model::flattened`]): its path in
+    /// the flat lists and the path the user wrote, for error messages.
+    #[serde(skip)]
+    pub origins: Vec<(String, String)>,
 }
 
 /// Starts the listed nodes and beams (all their nodes) turning together about an axis: each
@@ -73,9 +84,9 @@ pub struct InitialSpin {
 #[serde(deny_unknown_fields)]
 pub struct Node {
     pub name: String,
-    /// Initial position, m, inertial frame.
+    /// Initial position, m, inertial frame (or `frame`'s).
     pub position: Vec3,
-    /// Initial orientation of the node's triad relative to the inertial frame.
+    /// Initial orientation of the node's triad relative to the inertial frame (or `frame`'s).
     #[serde(default)]
     pub orientation: Orientation,
     /// Initial velocity, m/s, inertial frame (default zero; completed to satisfy the joints).
@@ -84,6 +95,10 @@ pub struct Node {
     /// Initial angular velocity, rad/s, inertial frame (default zero).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub angular_velocity: Option<Vec3>,
+    /// A node (of `nodes`) in whose initial frame this node is given: `position` relative to
+    /// it and every vector and the orientation in its triad.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame: Option<String>,
 }
 
 /// Orientation of a triad: give at most one of the fields (none means aligned with the
@@ -175,6 +190,10 @@ pub struct Beam {
     /// damping matrix, and/or mass-proportional.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub damping: Option<BeamDamping>,
+    /// A node (of `nodes`) in whose initial frame the beam is given: points relative to it,
+    /// directions in its triad; the default `e2` is then the default rule in that frame.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame: Option<String>,
 }
 
 /// A section at a station along a beam.

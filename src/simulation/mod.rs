@@ -143,11 +143,14 @@ impl Simulation {
     }
 
     pub fn with_scheme(model: &Model, scheme: Scheme) -> Result<Simulation, SimError> {
+        // Patterns expanded and frames placed once; everything below sees the flat model.
+        let flat = model.flattened().map_err(SimError::Model)?;
+        let model = &flat;
         let statics = model.simulation.analysis == Analysis::Static;
         // A static solve has no velocities: it uses the EP layout whatever the scheme.
         let layout_scheme = if statics { Scheme::Ep } else { scheme };
         let system = crate::compile::compile(model, layout_scheme).map_err(SimError::Model)?;
-        check_redundancy(model, &system).map_err(SimError::Model)?;
+        check_redundancy(model, &system).map_err(|e| SimError::Model(e.located(model)))?;
         let mut settings = model.simulation.clone();
         settings.scheme = scheme;
         let (state, warnings) = initial_state(model, &system, &settings, statics)?;
@@ -157,7 +160,8 @@ impl Simulation {
         } else {
             energy_scale::energy_floor(&system, &state, &mut integrator, &settings)
         };
-        let channels = Channels::new(model, &system).map_err(SimError::Model)?;
+        let channels =
+            Channels::new(model, &system).map_err(|e| SimError::Model(e.located(model)))?;
         let e0 = system.kinetic_energy(&state) + system.potential_energy(&state);
         let totals = Totals {
             initial_energy: e0,
