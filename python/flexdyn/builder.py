@@ -21,7 +21,7 @@ import json
 import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any, Literal, Union
+from typing import Any, Literal, Self, Union
 
 import yaml
 
@@ -675,7 +675,7 @@ class Pattern(Model):
             entry.setdefault(key, [])
         self.data = entry
 
-    def __enter__(self) -> Pattern:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc) -> None:
