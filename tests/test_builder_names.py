@@ -51,10 +51,18 @@ def test_every_joint_and_load_type_has_a_method_taking_its_keys(group):
 
 def test_every_item_list_has_its_method():
     lists = {k for k, v in SCHEMA["properties"].items() if v.get("type") == "array" and k != "gravity"}
-    assert lists == set(SINGULAR) | {"joints", "loads", "sensors"}
+    assert lists == set(SINGULAR) | {"joints", "loads", "sensors", "patterns"}
     for name, definition in SINGULAR.values():
         method = getattr(fd.Model, name)
         assert parameters(method) == yaml_keys(name, DEFS[definition]), name
+    # A pattern's own keys are the method's; its items are added to the pattern it returns.
+    own = {
+        k
+        for k, v in DEFS["Pattern"]["properties"].items()
+        if v.get("type") != "array" or k in ("axis", "center")
+    }
+    assert parameters(fd.Model.pattern) == own
+    assert keys(DEFS["Pattern"]) - own == lists - {"patterns"}
 
 
 def test_simulation_takes_every_setting_and_only_those():

@@ -602,13 +602,15 @@ class Model:
         modified_newton: bool | None = None,
         load_steps: int | None = None,
         preload: bool | None = None,
+        inertial_preload: bool | None = None,
     ) -> Model:
         """The `simulation:` settings (those given; the rest keep their defaults): analysis,
         scheme ("ed", the default, or "ep"), t_end and dt (s), output_dt (s); step_control
         ("adaptive", the default, or "fixed") with tolerance (m), dt_min, dt_max, max_growth,
         max_shrink, max_step_halvings; Newton's newton_tol, newton_increment_tol,
         max_newton_iterations, modified_newton; load_steps (static); preload (start a dynamic
-        run from the static equilibrium at t = 0)."""
+        run from the static equilibrium at t = 0); inertial_preload (default True: beams that
+        drives moving at t = 0 carry along start strained by that motion's inertial loads)."""
         given = {k: v for k, v in locals().items() if k != "self" and v is not None}
         self.data["simulation"].update(copy.deepcopy(given))
         return self

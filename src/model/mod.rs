@@ -1103,6 +1103,12 @@ pub struct SimulationSettings {
     /// t = 0 (solved with `load_steps`), with the given velocities made consistent there.
     #[serde(default)]
     pub preload: bool,
+    /// Dynamic analysis: when drives already move at t = 0 and carry beams along, start the
+    /// beams in quasi-static equilibrium with that motion's inertial loads (and gravity and
+    /// the loads at t = 0), so they follow smoothly instead of ringing; `false` starts them
+    /// unstrained.
+    #[serde(default = "yes")]
+    pub inertial_preload: bool,
     /// Adaptive stepping: the most a step may grow over the previous one, and shrink.
     #[serde(default = "default_max_growth")]
     pub max_growth: f64,
@@ -1132,6 +1138,9 @@ impl SimulationSettings {
 /// top's precession was 0.8 % off after 0.5 s, the beam slider's load 0.9 %).
 fn default_tolerance() -> f64 {
     1e-4
+}
+fn yes() -> bool {
+    true
 }
 fn default_max_growth() -> f64 {
     2.0
@@ -1183,6 +1192,7 @@ impl Default for SimulationSettings {
             step_control: StepControl::default(),
             tolerance: default_tolerance(),
             preload: false,
+            inertial_preload: true,
             dt_min: None,
             dt_max: None,
             max_growth: default_max_growth(),

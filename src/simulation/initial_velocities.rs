@@ -207,7 +207,7 @@ pub fn unstrained_start(system: &System, state: &State, preload: bool) -> Option
         return None;
     }
     Some(format!(
-        "drive(s) {} already move at t = 0: the model starts in that motion, but beam(s) {} start unstrained under its inertial loads and will ring at their modes; to start smoothly, bring the drive(s) up from rest with a smooth rate (docs/expressions.md, \"Starting a drive from rest\"), or for a steady spin give `initial_spins` and `simulation.preload: true`",
+        "drive(s) {} already move at t = 0: the model starts in that motion, but beam(s) {} start unstrained under its inertial loads and will ring at their modes; to start smoothly, bring the drive(s) up from rest with a smooth rate (docs/expressions.md, \"Starting a drive from rest\"), or let the inertial pre-load start them strained (`simulation.inertial_preload`, on by default)",
         moving.join(", "),
         carried.join(", ")
     ))

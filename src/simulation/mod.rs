@@ -2,6 +2,7 @@
 //! on Newton failure, and sensor samples handed out in chunks so memory stays flat.
 
 mod energy_scale;
+mod inertial_preload;
 mod initial_velocities;
 mod outputs;
 mod step_control;
@@ -538,11 +539,21 @@ fn initial_state(
     warnings.extend(initial_velocities::make_consistent(
         model, system, &mut state,
     ));
-    warnings.extend(initial_velocities::unstrained_start(
-        system,
-        &state,
-        settings.preload,
-    ));
+    let unstrained = initial_velocities::unstrained_start(system, &state, settings.preload);
+    if let Some(warning) = unstrained {
+        if !settings.inertial_preload {
+            warnings.push(warning);
+            return Ok((state, warnings));
+        }
+        match inertial_preload::preload(model, system, settings, &mut state) {
+            Ok(()) => {
+                initial_velocities::project_initial_velocities(system, &mut state);
+            }
+            Err(why) => warnings.push(format!(
+                "{warning} (the inertial pre-load that starts them strained failed: {why})"
+            )),
+        }
+    }
     Ok((state, warnings))
 }
 

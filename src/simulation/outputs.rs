@@ -6,6 +6,7 @@ use super::Simulation;
 use crate::integrator::dense_output::state_between;
 use crate::integrator::StepReport;
 use crate::state::State;
+use crate::system::System;
 
 impl Simulation {
     /// Records a sample at the current time (the start of a run). Its state channels are
@@ -129,21 +130,7 @@ impl Simulation {
             return;
         }
         let step = self.h_next.min(self.settings.dt_max());
-        // Short against a step, but long enough that the motion over it, ~½ a h², stands
-        // 1e4 above the round-off of positions ~ε L (a from gravity and the speeds).
-        let l = self.system.length_ref;
-        let speed = self
-            .state
-            .nodes
-            .iter()
-            .fold(0.0f64, |m, n| m.max(n.v.norm() + n.omega().norm() * l));
-        let accel = self.system.gravity.norm().max(speed * speed / l);
-        let floor = if accel > 0.0 {
-            (1e4 * f64::EPSILON * l / accel).sqrt()
-        } else {
-            0.0
-        };
-        let h = (1e-3 * step).max(floor.min(0.1 * step));
+        let h = instant_step(&self.system, &self.state, step);
         let mut integrator = crate::integrator::Integrator::new(&self.system, &self.settings);
         // A step's end velocities meet the velocity constraints only to the scheme's
         // accuracy; over so short a step the difference would take an impulse.
@@ -182,4 +169,22 @@ impl Simulation {
             std::mem::take(&mut self.values),
         )
     }
+}
+
+/// The length of a step that solves for an instant's accelerations and forces: short against
+/// a step of `step`, but long enough that the motion over it, ~½ a h², stands 1e4 above the
+/// round-off of positions ~ε L (a from gravity and the speeds).
+pub(super) fn instant_step(system: &System, state: &State, step: f64) -> f64 {
+    let l = system.length_ref;
+    let speed = state
+        .nodes
+        .iter()
+        .fold(0.0f64, |m, n| m.max(n.v.norm() + n.omega().norm() * l));
+    let accel = system.gravity.norm().max(speed * speed / l);
+    let floor = if accel > 0.0 {
+        (1e4 * f64::EPSILON * l / accel).sqrt()
+    } else {
+        0.0
+    };
+    (1e-3 * step).max(floor.min(0.1 * step))
 }
