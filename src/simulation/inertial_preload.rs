@@ -58,22 +58,7 @@ pub(super) fn preload(
     pre.integrator = Integrator::new(&pre.system, &pre.settings);
     pre.solve_static().map_err(|e| e.reason)?;
     check_elastic(system, state, &pre.state)?;
-    for ((n, p), spin) in state
-        .nodes
-        .iter_mut()
-        .zip(&pre.state.nodes)
-        .zip(&system.node_spin)
-    {
-        n.x = p.x;
-        n.r = p.r;
-        // A spinning node's velocities follow it to its stretched position.
-        if let Some(spin) = spin {
-            n.v = spin.omega.cross(&(n.x - spin.center));
-            n.w = n.r.tmul_v(&spin.omega);
-        }
-    }
-    state.coords.clone_from(&pre.state.coords);
-    state.history.clone_from(&pre.state.history);
+    super::adopt_static_positions(system, state, &pre.state);
     Ok(())
 }
 
@@ -91,12 +76,15 @@ fn static_solve_of(model: &Model, state: &State) -> Result<Simulation, SimError>
     Ok(pre)
 }
 
+/// A node's acceleration and material angular acceleration.
+type Acceleration = (V3<f64>, V3<f64>);
+
 /// Each node's acceleration and material angular acceleration in the rigidified mechanism.
 fn rigid_accelerations(
     model: &Model,
     settings: &SimulationSettings,
     state: &State,
-) -> Result<Vec<(V3<f64>, V3<f64>)>, String> {
+) -> Result<Vec<Acceleration>, String> {
     let rigid = compile::compile(&rigidified(model), Scheme::Ep)
         .map_err(|e| format!("the rigidified mechanism does not compile: {}", e.0[0]))?;
     let mut start = rigid.initial.clone();

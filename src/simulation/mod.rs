@@ -578,24 +578,29 @@ fn start_from_static_equilibrium(
             ..e
         })
     })?;
+    adopt_static_positions(system, state, &pre.state);
+    state.lambda.clone_from(&pre.state.lambda);
+    Ok(())
+}
+
+/// Starts from a static solve's positions, coordinates and history; a spinning node's
+/// velocities follow it to where it now is (its steady-spin position).
+fn adopt_static_positions(system: &System, state: &mut State, solved: &State) {
     for ((n, p), spin) in state
         .nodes
         .iter_mut()
-        .zip(&pre.state.nodes)
+        .zip(&solved.nodes)
         .zip(&system.node_spin)
     {
         n.x = p.x;
         n.r = p.r;
-        // A spinning node's velocities follow it to its steady-spin position.
         if let Some(spin) = spin {
             n.v = spin.omega.cross(&(n.x - spin.center));
             n.w = n.r.tmul_v(&spin.omega);
         }
     }
-    state.coords.clone_from(&pre.state.coords);
-    state.history.clone_from(&pre.state.history);
-    state.lambda.clone_from(&pre.state.lambda);
-    Ok(())
+    state.coords.clone_from(&solved.coords);
+    state.history.clone_from(&solved.history);
 }
 
 /// Over-constrained joints are a model error, reported by name: a dependence among the
