@@ -3,6 +3,7 @@
 pub mod beam;
 pub mod compile;
 pub mod elements;
+pub mod fields;
 pub mod integrator;
 pub mod joints;
 pub mod math;

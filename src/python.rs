@@ -370,6 +370,31 @@ impl PySimulation {
     fn done(&self) -> bool {
         self.sim.done()
     }
+    /// Full-field output of this run, or None when it records none: `{"nodes": N,
+    /// "points": P, "contacts": S, "topology": JSON}` — after the named channels each sample
+    /// holds N×3 positions, N×4 orientation quaternions (w, x, y, z), P×3 section forces
+    /// and P×3 moments (every beam's nodes in order, section triad), S contact η and S×3
+    /// contact points.
+    #[getter]
+    fn field_layout<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let (Some(f), Some(topo)) = (&self.sim.channels.fields, &self.sim.topology) else {
+            return Ok(None);
+        };
+        let d = PyDict::new(py);
+        d.set_item("nodes", f.node_count())?;
+        d.set_item("points", f.point_count())?;
+        d.set_item("contacts", f.contact_count())?;
+        d.set_item("topology", topo)?;
+        Ok(Some(d))
+    }
+    /// Field output's size: `(bytes per sample, estimated samples, recorded)`; the estimate
+    /// is one sample per `output_dt` (else per `dt`), whether or not the run records fields.
+    #[getter]
+    fn field_estimate(&self) -> (usize, f64, bool) {
+        let width = crate::fields::Fields::new(&self.sim.system).width();
+        let samples = crate::fields::estimated_samples(&self.sim.settings);
+        (8 * width, samples, self.sim.channels.fields.is_some())
+    }
     /// Warnings raised so far (each once), for the user.
     #[getter]
     fn warnings(&self) -> Vec<String> {

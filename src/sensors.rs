@@ -42,6 +42,8 @@ pub struct Channels {
     sources: Vec<(Source, usize)>,
     /// Channels whose values are step quantities (multipliers: reactions, driving forces).
     step_channels: Vec<usize>,
+    /// Full-field columns recorded after the named channels, if the run records them.
+    pub fields: Option<crate::fields::Fields>,
 }
 
 /// Running totals over the run, needed by the energy sensor.
@@ -82,6 +84,12 @@ impl Channels {
     /// 1e-5 over a step of a quarter turn gave a 2 m steel-like bar spinning freely 1.2 kN of
     /// tension between steps instead of its steady 17 N.
     pub fn step_end_channels(&self) -> Vec<usize> {
+        let n = self.names.len();
+        let field_loads = self
+            .fields
+            .iter()
+            .flat_map(|f| f.section_load_columns())
+            .map(move |c| n + c);
         (0..self.sources.len())
             .filter(|&c| match &self.sources[c] {
                 (Source::Energy | Source::Violation(_), _) => true,
@@ -91,6 +99,7 @@ impl Channels {
                 (Source::BeamEnergy(_), k) => *k == 1,
                 _ => false,
             })
+            .chain(field_loads)
             .collect()
     }
 
@@ -176,6 +185,7 @@ impl Channels {
             units: vec![],
             sources: vec![],
             step_channels: vec![],
+            fields: None,
         };
         let mut errors = Vec::new();
         for (i, s) in model.sensors.iter().enumerate() {
@@ -390,8 +400,9 @@ impl Channels {
         )
     }
 
+    /// Columns per sample: the named channels, then the field columns if recorded.
     pub fn len(&self) -> usize {
-        self.names.len()
+        self.names.len() + self.fields.as_ref().map_or(0, |f| f.width())
     }
 
     pub fn is_empty(&self) -> bool {
@@ -474,6 +485,9 @@ impl Channels {
                 }
             };
             out.push(v);
+        }
+        if let Some(f) = &self.fields {
+            f.sample(sys, state, out);
         }
     }
 }
@@ -560,23 +574,44 @@ fn beam_station(el: &crate::beam::element::BeamElement, state: &State, xi: f64, 
             .sum();
     }
     let values = el.gauss_values(state);
-    let xs: Vec<f64> = el.points.iter().map(|p| p.xi).collect();
-    let pick = |g: usize| {
-        if k < 6 {
-            values[g].1[k]
-        } else {
-            values[g].0[k - 6]
-        }
-    };
-    (0..xs.len())
-        .map(|g| {
-            let w: f64 = (0..xs.len())
-                .filter(|&o| o != g)
-                .map(|o| (xi - xs[o]) / (xs[g] - xs[o]))
-                .product();
-            w * pick(g)
-        })
+    if k < 6 {
+        return section_loads_at(el, &values, xi)[k];
+    }
+    gauss_interpolation(el, xi)
+        .map(|(g, w)| w * values[g].0[k - 6])
         .sum()
+}
+
+/// The weights of the polynomial through an element's Gauss points at parent coordinate
+/// `xi`: `(point, weight)` (weight 1 for a single point).
+fn gauss_interpolation(
+    el: &crate::beam::element::BeamElement,
+    xi: f64,
+) -> impl Iterator<Item = (usize, f64)> + '_ {
+    let xs = &el.points;
+    (0..xs.len()).map(move |g| {
+        let w: f64 = (0..xs.len())
+            .filter(|&o| o != g)
+            .map(|o| (xi - xs[o].xi) / (xs[g].xi - xs[o].xi))
+            .product();
+        (g, w)
+    })
+}
+
+/// Section forces and moments `[F1, F2, F3, M1, M2, M3]` (section triad) at parent coordinate
+/// `xi`, interpolated from the element's Gauss-point `values` (`gauss_values`).
+pub fn section_loads_at(
+    el: &crate::beam::element::BeamElement,
+    values: &[([f64; 6], [f64; 6])],
+    xi: f64,
+) -> [f64; 6] {
+    let mut out = [0.0; 6];
+    for (g, w) in gauss_interpolation(el, xi) {
+        for (o, v) in out.iter_mut().zip(values[g].1) {
+            *o += w * v;
+        }
+    }
+    out
 }
 
 /// Rotation of the section at parent coordinate `xi` from its reference, as a rotation

@@ -589,6 +589,7 @@ class Model:
         t_end: float | None = None,
         dt: float | None = None,
         output_dt: float | None = None,
+        fields: bool | None = None,
         step_control: Literal["adaptive", "fixed"] | None = None,
         tolerance: float | None = None,
         dt_min: float | None = None,
@@ -605,7 +606,8 @@ class Model:
         inertial_preload: bool | None = None,
     ) -> Model:
         """The `simulation:` settings (those given; the rest keep their defaults): analysis,
-        scheme ("ed", the default, or "ep"), t_end and dt (s), output_dt (s); step_control
+        scheme ("ed", the default, or "ep"), t_end and dt (s), output_dt (s); fields (record
+        the full-field motion for `flexdyn view`/`export`; default: when ≤ 100 MB); step_control
         ("adaptive", the default, or "fixed") with tolerance (m), dt_min, dt_max, max_growth,
         max_shrink, max_step_halvings; Newton's newton_tol, newton_increment_tol,
         max_newton_iterations, modified_newton; load_steps (static); preload (start a dynamic

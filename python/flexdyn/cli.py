@@ -27,6 +27,7 @@ def _run(args) -> int:
             output_dt=args.output_dt,
             step_control="fixed" if args.fixed_step else ("adaptive" if args.tolerance is not None else None),
             tolerance=args.tolerance,
+            fields=args.fields,
             out=args.output,
             progress=not args.quiet and sys.stderr.isatty(),
         )
@@ -59,8 +60,16 @@ def _run(args) -> int:
             )
         if args.output:
             n = res.sizes["load_factor" if static else "time"]
-            print(f"wrote {n} samples of {len(res.data_vars)} channels to {args.output}")
+            fields = " and the full-field motion" if "node_position" in res else ""
+            print(f"wrote {n} samples of {len(_channel_names(res))} channels{fields} to {args.output}")
     return 0
+
+
+def _channel_names(ds) -> list[str]:
+    """The sensors' channels of a results dataset (not the field arrays)."""
+    from .fields import is_field_variable
+
+    return [n for n in ds.data_vars if not is_field_variable(n)]
 
 
 def _modes(args) -> int:
@@ -124,7 +133,34 @@ def _info(args) -> int:
     control = sim.step_control
     steps = f"tolerance {sim.tolerance:g}" if control == "adaptive" else f"dt {sim.dt:g} s"
     print(f"  run         {sim.scheme.upper()}, t_end {sim.t_end:g} s, {control} steps ({steps})")
+    print(f"  fields      {_field_estimate(sim, d.get('simulation', {}))}")
     return 0
+
+
+def _size(n: float) -> str:
+    for unit in ("B", "kB", "MB", "GB"):
+        if n < 1000 or unit == "GB":
+            return f"{n:.3g} {unit}"
+        n /= 1000
+    return ""
+
+
+def _field_estimate(sim, settings: dict) -> str:
+    """The full-field output's estimated size and whether the run records it, and why."""
+    per_sample, samples, on = sim.field_estimate
+    if settings.get("output_dt"):
+        every = "output_dt"
+    elif sim.step_control == "fixed" or sim.is_static:
+        every = "step"
+    else:
+        every = "dt; adaptive steps usually grow past it, set output_dt to know"
+    size = f"{_size(per_sample)} per sample × ~{samples:.0f} samples (one per {every}) ≈ {_size(per_sample * samples)}"
+    if "fields" in settings:
+        why = "as simulation.fields says"
+    else:
+        why = "by default: at most 100 MB" if on else "over 100 MB: set simulation.fields: true"
+    return f"{size}; {'recorded' if on else 'not recorded'} ({why})"
+
 
 
 def _plot(args) -> int:
@@ -187,6 +223,13 @@ def main(argv=None) -> int:
     r.add_argument("--output-dt", type=float)
     r.add_argument("--tolerance", type=float, help="adaptive steps with this local error tolerance")
     r.add_argument("--fixed-step", action="store_true", help="fixed steps of dt instead of adaptive steps")
+    r.add_argument(
+        "--fields",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="record the full-field motion for view/animate/export (default: when its estimate, "
+        "shown by `flexdyn info`, is at most 100 MB)",
+    )
     r.add_argument("-q", "--quiet", action="store_true")
     r.set_defaults(func=_run)
     md = sub.add_parser("modes", help="natural frequencies about the static equilibrium")

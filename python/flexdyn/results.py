@@ -18,6 +18,7 @@ import xarray as xr
 
 from . import _core
 from .builder import Model, load
+from .fields import FieldLayout
 from .storage import AppendOnlyNetcdf, OutputError
 
 #: Steps per chunk handed from Rust to Python (long enough that the seam costs nothing).
@@ -81,6 +82,7 @@ def simulate(
     newton_tol: float | None = None,
     step_control: str | None = None,
     tolerance: float | None = None,
+    fields: bool | None = None,
     out: str | Path | None = None,
     progress: bool = False,
     on_chunk=None,
@@ -91,7 +93,8 @@ def simulate(
 
     Keyword arguments override the model's `simulation` settings (steps are adaptive to
     `tolerance` by default, `dt` the first; `step_control="fixed"` keeps them at `dt`;
-    `output_dt` records at exactly k·output_dt). With `out`, samples go to
+    `output_dt` records at exactly k·output_dt; `fields` records the full-field motion, see
+    `flexdyn.fields`). With `out`, samples go to
     disk chunk by chunk and are not kept in memory: the returned dataset reads the file
     lazily, so memory stays flat however long the run. `on_chunk(times, values)` is called
     for every chunk (live plots, custom sinks). If a step cannot be completed, SolverError is
@@ -109,12 +112,16 @@ def simulate(
         "tolerance": tolerance,
     }
     data["simulation"].update({k: _number(k, v) for k, v in overrides.items() if v is not None})
+    if fields is not None:
+        data["simulation"]["fields"] = bool(fields)
     if out is not None:
         _check_output_path(Path(out), model)
     sim = _core.Simulation(json.dumps(data))
     names, units = sim.channel_names, sim.channel_units
+    layout = FieldLayout.from_core(sim.field_layout)
+    columns = len(names) + (layout.width() if layout else 0)
     if out is None:
-        _check_in_memory_size(data["simulation"], len(names))
+        _check_in_memory_size(data["simulation"], columns)
     attrs = {
         "model": data.get("name") or "",
         "analysis": "static" if sim.is_static else "dynamic",
@@ -123,9 +130,15 @@ def simulate(
         "flexdyn_model": json.dumps(data),
         "completed": 0,  # until the run reaches its end
     }
+    if layout:
+        attrs["flexdyn_topology"] = json.dumps(layout.topology)
     dim, dim_units = ("load_factor", "1") if sim.is_static else ("time", "s")
-    writer = AppendOnlyNetcdf(out, names, units, attrs, dim, dim_units) if out is not None else None
+    writer = None
+    if out is not None:
+        arrays, dims = layout.netcdf(dim) if layout else ((), {})
+        writer = AppendOnlyNetcdf(out, names, units, attrs, dim, dim_units, arrays, dims)
     run = _Run(sim, writer, on_chunk, progress)
+    run.layout, run.n_channels = layout, len(names)
     with _StopRequests() as stop:
         try:
             run.loop(stop)
@@ -233,6 +246,7 @@ class _Run:
         self.pending, self.pending_rows = [], 0
         self.start = self.last_flush = time.perf_counter()
         self.error = None
+        self.layout, self.n_channels = None, None
         self.completed = False
         self.stats = {}
 
@@ -251,7 +265,7 @@ class _Run:
             self.chunks_t.append(t)
             self.chunks_v.append(v)
         if callback and self.on_chunk is not None:
-            self.on_chunk(t, v)
+            self.on_chunk(t, v[:, : self.n_channels])
 
     def flush(self):
         """Writes the pending samples to the file (durably)."""
@@ -327,8 +341,12 @@ class _Run:
 
     def dataset(self, names, units, attrs, dim, dim_units):
         times = np.concatenate(self.chunks_t) if self.chunks_t else np.zeros(0)
-        values = np.concatenate(self.chunks_v) if self.chunks_v else np.zeros((0, len(names)))
-        return _dataset(times, values, names, units, {**attrs, **self.run_attrs}, dim, dim_units)
+        width = len(names) + (self.layout.width() if self.layout else 0)
+        values = np.concatenate(self.chunks_v) if self.chunks_v else np.zeros((0, width))
+        ds = _dataset(times, values, names, units, {**attrs, **self.run_attrs}, dim, dim_units)
+        if self.layout:
+            ds = self.layout.add_to(ds, values[:, len(names) :], dim)
+        return ds
 
 
 def solve_static(

@@ -70,46 +70,96 @@ def _attributes(attrs: dict) -> bytes:
     return struct.pack(">ii", _ATTRIBUTE, len(attrs)) + b"".join(_attribute(k, v) for k, v in attrs.items())
 
 
+class ArrayVariable:
+    """A variable beyond the plain channels: a record variable with extra dimensions
+    (`data` None: its values are columns of each record) or a fixed one written once
+    (`data`: float64, int32, or a list of strings stored as a UTF-8 char array)."""
+
+    def __init__(self, name, dims, attrs=None, data=None):
+        self.name, self.dims, self.attrs = name, tuple(dims), dict(attrs or {})
+        self.data = data
+
+
+def _fixed_bytes(var: ArrayVariable, sizes: dict) -> tuple[int, bytes]:
+    """A fixed variable's nc_type and its data, padded to 4 bytes."""
+    data = var.data
+    if isinstance(data, (list, tuple)) and (not data or isinstance(data[0], str)):
+        width = sizes[var.dims[-1]]
+        raw = b"".join(s.encode("utf-8").ljust(width, b"\0") for s in data)
+        return _CHAR, _pad4(raw)
+    arr = np.asarray(data)
+    if arr.dtype.kind in "iub":
+        return _INT, arr.astype(">i4").tobytes()
+    return _DOUBLE, arr.astype(">f8").tobytes()
+
+
 class AppendOnlyNetcdf:
-    """A NetCDF classic file with one unlimited dimension and one f8 variable per channel.
+    """A NetCDF classic file with one unlimited dimension and one f8 variable per channel,
+    plus optional `arrays` (see ArrayVariable) over `dimensions` (name → size).
 
     `path` is created (or replaced); `names`/`units` are the channels; `attrs` global
-    attributes. `append(times, values[n, channels])` adds records durably; `finish(attrs)`
-    adds final global attributes. Raises OutputError naming the file if it cannot be
-    written.
+    attributes. `append(times, values[n, columns])` adds records durably, the columns being
+    the channels and then each record array flattened, in order; `finish(attrs)` adds final
+    global attributes. Raises OutputError naming the file if it cannot be written.
     """
 
-    def __init__(self, path, names, units, attrs, dim="time", dim_units="s"):
+    def __init__(self, path, names, units, attrs, dim="time", dim_units="s", arrays=(), dimensions=None):
         self.path = Path(path)
         self.dim, self.dim_units = dim, dim_units
         self.names, self.units = [dim, *names], [dim_units, *units]
+        self.dimensions = {dim: 0, **(dimensions or {})}
+        self.dim_ids = {d: k for k, d in enumerate(self.dimensions)}
+        self.arrays = list(arrays)
+        self.fixed = [v for v in self.arrays if v.data is not None]
+        self.record_arrays = [v for v in self.arrays if v.data is None]
         self.attrs = dict(attrs)
         self.records = 0
+        self.fixed_data = [_fixed_bytes(v, self.dimensions) for v in self.fixed]
         # Header size with the spare room: the data start after it, for good.
         self.data_start = len(self._header(0, self.attrs)) + _HEADER_SPARE
-        self.record_bytes = 8 * len(self.names)
+        self.record_start = self.data_start + sum(len(b) for _, b in self.fixed_data)
+        self.record_bytes = 8 * len(self.names) + sum(self._vsize(v) for v in self.record_arrays)
         try:
             self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o644)
         except OSError as e:
             raise OutputError(e.errno, f"cannot create the results file {self.path}: {e.strerror}") from e
         try:
             header = self._header(0, self.attrs)
-            self._write_all(header + b"\0" * (self.data_start - len(header)), 0)
+            fixed = b"".join(b for _, b in self.fixed_data)
+            self._write_all(header + b"\0" * (self.data_start - len(header)) + fixed, 0)
             os.fsync(self.fd)
         except OSError as e:
             os.close(self.fd)
             raise OutputError(e.errno, f"cannot write the results file {self.path}: {e.strerror}") from e
 
+    def _vsize(self, var: ArrayVariable) -> int:
+        """Bytes of one record of a record array (f8)."""
+        return 8 * int(np.prod([self.dimensions[d] for d in var.dims[1:]]))
+
     def _header(self, records: int, attrs: dict) -> bytes:
         out = [_MAGIC, struct.pack(">i", records)]
-        out.append(struct.pack(">ii", _DIMENSION, 1) + _name(self.dim) + struct.pack(">i", 0))
+        out.append(struct.pack(">ii", _DIMENSION, len(self.dimensions)))
+        out.extend(_name(d) + struct.pack(">i", n) for d, n in self.dimensions.items())
         out.append(_attributes(attrs))
-        out.append(struct.pack(">ii", _VARIABLE, len(self.names)))
+        out.append(struct.pack(">ii", _VARIABLE, len(self.names) + len(self.arrays)))
         start = getattr(self, "data_start", 0)
-        for k, (n, u) in enumerate(zip(self.names, self.units)):
+        for var, (nc_type, data) in zip(self.fixed, getattr(self, "fixed_data", [])):
+            ids = [self.dim_ids[d] for d in var.dims]
+            out.append(_name(var.name) + struct.pack(f">i{len(ids)}i", len(ids), *ids))
+            out.append(_attributes(var.attrs) + struct.pack(">iiq", nc_type, len(data), start))
+            start += len(data)
+        offset = getattr(self, "record_start", 0)
+        for n, u in zip(self.names, self.units):
             out.append(_name(n) + struct.pack(">ii", 1, 0) + _attributes({"units": u}))
             # nc_type, vsize (one record of this variable), begin (64-bit offset)
-            out.append(struct.pack(">iiq", _DOUBLE, 8, start + 8 * k))
+            out.append(struct.pack(">iiq", _DOUBLE, 8, offset))
+            offset += 8
+        for var in self.record_arrays:
+            ids = [self.dim_ids[d] for d in var.dims]
+            out.append(_name(var.name) + struct.pack(f">i{len(ids)}i", len(ids), *ids))
+            size = self._vsize(var)
+            out.append(_attributes(var.attrs) + struct.pack(">iiq", _DOUBLE, size, offset))
+            offset += size
         return b"".join(out)
 
     def _write_all(self, data: bytes, offset: int) -> int:
@@ -138,11 +188,11 @@ class AppendOnlyNetcdf:
         m = len(times)
         if m == 0:
             return
-        rows = np.empty((m, len(self.names)), dtype=">f8")
+        rows = np.empty((m, self.record_bytes // 8), dtype=">f8")
         rows[:, 0] = times
         rows[:, 1:] = values
         try:
-            self._write_all(rows.tobytes(), self.data_start + self.records * self.record_bytes)
+            self._write_all(rows.tobytes(), self.record_start + self.records * self.record_bytes)
             self._commit(self.records + m)
         except OSError as e:
             fitted = getattr(e, "written", 0) // self.record_bytes

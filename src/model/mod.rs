@@ -1061,6 +1061,12 @@ pub struct SimulationSettings {
     /// steps (state channels interpolated within a step). Default: every step.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output_dt: Option<f64>,
+    /// Full-field output at the output times: every node's position and orientation, the
+    /// beams' section loads at their nodes, the sliding joints' contact points, with the
+    /// model's topology — what `flexdyn view`, `animate` and `export` draw. Default: recorded
+    /// when its estimated size (`flexdyn info`) is at most 100 MB.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fields: Option<bool>,
     /// How many times a step whose Newton iteration fails is halved before the run stops.
     #[serde(default = "default_max_halvings")]
     pub max_step_halvings: u32,
@@ -1184,6 +1190,7 @@ impl Default for SimulationSettings {
             t_end: default_t_end(),
             dt: default_dt(),
             output_dt: None,
+            fields: None,
             max_step_halvings: default_max_halvings(),
             newton_tol: default_newton_tol(),
             newton_increment_tol: default_newton_increment_tol(),

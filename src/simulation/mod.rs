@@ -136,6 +136,8 @@ pub struct Simulation {
     pub energy_floor: f64,
     /// Static analysis: the load factor of the current state.
     load_factor: f64,
+    /// The model's topology (JSON, see `fields::topology`) when the run records fields.
+    pub topology: Option<String>,
 }
 
 impl Simulation {
@@ -161,8 +163,14 @@ impl Simulation {
         } else {
             energy_scale::energy_floor(&system, &state, &mut integrator, &settings)
         };
-        let channels =
+        let mut channels =
             Channels::new(model, &system).map_err(|e| SimError::Model(e.located(model)))?;
+        let fields = crate::fields::Fields::new(&system);
+        let mut topology = None;
+        if crate::fields::fields_enabled(&settings, &fields) {
+            channels.fields = Some(fields);
+            topology = Some(crate::fields::topology(model, &system).to_string());
+        }
         let e0 = system.kinetic_energy(&state) + system.potential_energy(&state);
         let totals = Totals {
             initial_energy: e0,
@@ -193,6 +201,7 @@ impl Simulation {
             energy_scale: [0.0; 3],
             energy_floor,
             load_factor: 0.0,
+            topology,
         };
         sim.h_next = sim.settings.dt;
         sim.energy_scale = sim.motion_energies(&sim.state).map(|e| e.max(energy_floor));
