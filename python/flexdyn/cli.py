@@ -178,6 +178,33 @@ def _plot(args) -> int:
     return 0
 
 
+def _results_file(path) -> None:
+    if not Path(path).is_file():
+        raise _core.ModelError(f"{path}: no such results file")
+
+
+def _view(args) -> int:
+    from .viewer import write_html
+
+    _results_file(args.results)
+    out = args.output or str(Path(args.results).with_suffix(".html"))
+    try:
+        write_html(
+            args.results,
+            out,
+            color=args.color,
+            scale=args.scale,
+            max_frames=args.max_frames,
+            ribbon_width=args.ribbon_width,
+            plotly_js=args.plotly_js,
+        )
+    except (KeyError, ValueError) as e:
+        print(f"error: {str(e).strip(chr(39))}", file=sys.stderr)
+        return EXIT_USAGE
+    print(f"wrote {out}")
+    return 0
+
+
 def _with(args, **fields):
     for k, v in fields.items():
         setattr(args, k, v)
@@ -266,6 +293,20 @@ def main(argv=None) -> int:
     cp.add_argument("--labels", nargs="+")
     cp.add_argument("--title")
     cp.set_defaults(func=lambda a: _plot(_with(a, sensors=a.sensors)))
+    vw = sub.add_parser("view", help="a 3-D animation of a results file's motion, as one HTML page")
+    vw.add_argument("results", help="results file (.nc) with field output")
+    vw.add_argument("-o", "--output", help="page to write (default: the results file's name, .html)")
+    vw.add_argument("--color", choices=["F1", "F2", "F3", "M1", "M2", "M3"], help="colour beams by a section load")
+    vw.add_argument("--scale", type=float, default=1.0, help="deformation scale factor (default 1)")
+    vw.add_argument("--max-frames", type=int, default=400, help="frames at most, evenly spread (default 400)")
+    vw.add_argument("--ribbon-width", type=float, help="ribbon width, m (default 3 %% of the model's extent)")
+    vw.add_argument(
+        "--plotly-js",
+        choices=["inline", "beside"],
+        default="inline",
+        help="plotly.js in the page (default) or once as plotly.min.js beside it",
+    )
+    vw.set_defaults(func=_view)
     e = sub.add_parser(
         "expand", help="print a model file with its patterns expanded and frames placed (YAML)"
     )
