@@ -12,10 +12,14 @@ from importlib import metadata as _metadata
 from ._core import FlexdynError, ModelError, SolverError
 from ._core import __version__ as _core_version
 from ._core import schema as _schema
+from .animate import animate
 from .builder import Model, drive, load
+from .export import export_vtk
+from .fields import motion
 from .modes import modes
 from .results import Interrupted, open_results, simulate, solve_static
 from .storage import OutputError
+from .viewer import write_html as view
 
 try:
     __version__: str = _metadata.version("flexdyn")
@@ -30,13 +34,17 @@ __all__ = [
     "OutputError",
     "SolverError",
     "__version__",
+    "animate",
     "drive",
+    "export_vtk",
     "load",
     "modes",
+    "motion",
     "open_results",
     "schema",
     "simulate",
     "solve_static",
+    "view",
 ]
 
 

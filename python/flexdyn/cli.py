@@ -205,6 +205,41 @@ def _view(args) -> int:
     return 0
 
 
+def _export(args) -> int:
+    from .export import export_vtk
+
+    _results_file(args.results)
+    try:
+        pvd = export_vtk(args.results, args.vtk, name=args.name)
+    except KeyError as e:
+        print(f"error: {str(e).strip(chr(39))}", file=sys.stderr)
+        return EXIT_USAGE
+    print(f"wrote {pvd} (open it in ParaView)")
+    return 0
+
+
+def _animate(args) -> int:
+    from .animate import animate
+
+    _results_file(args.results)
+    view = tuple(float(v) for v in args.view.split(","))
+    try:
+        out = animate(
+            args.results,
+            args.output,
+            fps=args.fps,
+            max_frames=args.max_frames,
+            scale=args.scale,
+            color=args.color,
+            view=view,
+        )
+    except (KeyError, ValueError) as e:
+        print(f"error: {str(e).strip(chr(39))}", file=sys.stderr)
+        return EXIT_USAGE
+    print(f"wrote {out}")
+    return 0
+
+
 def _with(args, **fields):
     for k, v in fields.items():
         setattr(args, k, v)
@@ -307,6 +342,20 @@ def main(argv=None) -> int:
         help="plotly.js in the page (default) or once as plotly.min.js beside it",
     )
     vw.set_defaults(func=_view)
+    an = sub.add_parser("animate", help="a results file's motion as a video (.mp4) or animated GIF")
+    an.add_argument("results", help="results file (.nc) with field output")
+    an.add_argument("-o", "--output", required=True, help="video file: .mp4 or .gif")
+    an.add_argument("--fps", type=int, default=25, help="frames per second (default 25)")
+    an.add_argument("--max-frames", type=int, default=200, help="frames at most, evenly spread (default 200)")
+    an.add_argument("--scale", type=float, default=1.0, help="deformation scale factor (default 1)")
+    an.add_argument("--color", choices=["F1", "F2", "F3", "M1", "M2", "M3"], help="colour beams by a section load")
+    an.add_argument("--view", default="25,-60", help="camera elevation,azimuth in degrees (default 25,-60)")
+    an.set_defaults(func=_animate)
+    ex = sub.add_parser("export", help="export a results file's motion (VTU/PVD time series for ParaView)")
+    ex.add_argument("results", help="results file (.nc) with field output")
+    ex.add_argument("--vtk", required=True, metavar="FOLDER", help="folder for the .vtu files and the .pvd")
+    ex.add_argument("--name", help="file name stem (default: the results file's)")
+    ex.set_defaults(func=_export)
     e = sub.add_parser(
         "expand", help="print a model file with its patterns expanded and frames placed (YAML)"
     )
