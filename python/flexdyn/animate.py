@@ -34,7 +34,11 @@ def _limits(ax, nodes: np.ndarray, contacts: np.ndarray):
 
 
 def _segments(mo: Motion, p: np.ndarray) -> np.ndarray:
-    segs = [[p[b["nodes"][a]], p[b["nodes"][a + 1]]] for b in mo.topology["beams"] for a in range(len(b["nodes"]) - 1)]
+    segs = [
+        [p[b["nodes"][a]], p[b["nodes"][a + 1]]]
+        for b in mo.topology["beams"]
+        for a in range(len(b["nodes"]) - 1)
+    ]
     return np.array(segs).reshape(-1, 2, 3)
 
 

@@ -162,7 +162,6 @@ def _field_estimate(sim, settings: dict) -> str:
     return f"{size}; {'recorded' if on else 'not recorded'} ({why})"
 
 
-
 def _plot(args) -> int:
     from .plots import plot
 
@@ -331,7 +330,9 @@ def main(argv=None) -> int:
     vw = sub.add_parser("view", help="a 3-D animation of a results file's motion, as one HTML page")
     vw.add_argument("results", help="results file (.nc) with field output")
     vw.add_argument("-o", "--output", help="page to write (default: the results file's name, .html)")
-    vw.add_argument("--color", choices=["F1", "F2", "F3", "M1", "M2", "M3"], help="colour beams by a section load")
+    vw.add_argument(
+        "--color", choices=["F1", "F2", "F3", "M1", "M2", "M3"], help="colour beams by a section load"
+    )
     vw.add_argument("--scale", type=float, default=1.0, help="deformation scale factor (default 1)")
     vw.add_argument("--max-frames", type=int, default=400, help="frames at most, evenly spread (default 400)")
     vw.add_argument("--ribbon-width", type=float, help="ribbon width, m (default 3 %% of the model's extent)")
@@ -348,7 +349,9 @@ def main(argv=None) -> int:
     an.add_argument("--fps", type=int, default=25, help="frames per second (default 25)")
     an.add_argument("--max-frames", type=int, default=200, help="frames at most, evenly spread (default 200)")
     an.add_argument("--scale", type=float, default=1.0, help="deformation scale factor (default 1)")
-    an.add_argument("--color", choices=["F1", "F2", "F3", "M1", "M2", "M3"], help="colour beams by a section load")
+    an.add_argument(
+        "--color", choices=["F1", "F2", "F3", "M1", "M2", "M3"], help="colour beams by a section load"
+    )
     an.add_argument("--view", default="25,-60", help="camera elevation,azimuth in degrees (default 25,-60)")
     an.set_defaults(func=_animate)
     ex = sub.add_parser("export", help="export a results file's motion (VTU/PVD time series for ParaView)")

@@ -82,7 +82,7 @@ def export_vtk(results, folder: str | Path, *, name: str | None = None) -> Path:
     axes = frames(q)
     cells, cell_data = _cells(mo)
     n_contacts = mo.contact_position.shape[1]
-    pad = lambda a: np.concatenate([a, np.zeros((n_contacts,) + a.shape[1:])])  # noqa: E731
+    pad = lambda a: np.concatenate([a, np.zeros((n_contacts,) + a.shape[1:])])
     entries = []
     for k, t in enumerate(mo.times):
         points = np.concatenate([mo.positions[k], mo.contact_position[k]])

@@ -121,7 +121,9 @@ def write_html(
         raise ValueError(f"scale: must be a number ≥ 0 (got {scale})")
     mo = motion(results)
     name = title or _model_name(results) or "flexdyn results"
-    data = scene_data(mo, color=color, scale=scale, max_frames=max_frames, ribbon_width=ribbon_width, title=name)
+    data = scene_data(
+        mo, color=color, scale=scale, max_frames=max_frames, ribbon_width=ribbon_width, title=name
+    )
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     if plotly_js == "beside":
