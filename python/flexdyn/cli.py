@@ -79,6 +79,10 @@ def _modes(args) -> int:
     print(f"{'mode':>4}  {'omega [rad/s]':>14}  {'f [Hz]':>12}")
     for k, w, f in zip(md.mode.values, md.omega.values, md.frequency.values):
         print(f"{k:>4}  {w:>14.6g}  {f:>12.6g}")
+    if args.plot:
+        from .plots import plot_modes
+
+        print(f"wrote {plot_modes(md, args.plot, count=min(args.count, 9))}")
     return 0
 
 
@@ -169,7 +173,14 @@ def _plot(args) -> int:
         if not Path(f).is_file():
             raise _core.ModelError(f"{f}: no such results file")
     try:
-        out = plot(args.results, args.sensors, args.output, labels=args.labels, title=args.title)
+        out = plot(
+            args.results,
+            args.sensors,
+            args.output,
+            labels=args.labels,
+            title=args.title,
+            overlay=args.overlay,
+        )
     except (KeyError, ValueError) as e:
         print(f"error: {str(e).strip(chr(39))}", file=sys.stderr)
         return EXIT_USAGE
@@ -304,6 +315,9 @@ def main(argv=None) -> int:
         help="eigen-solver: dense (every mode, memory ∝ n²), sparse (shift-invert Arnoldi), "
         "auto (dense up to 1500 unknowns; the default)",
     )
+    md.add_argument(
+        "--plot", metavar="FIGURE", help="also draw the mode shapes (up to 9) to this .png/.svg/.pdf"
+    )
     md.set_defaults(func=_modes)
     for name in ("check", "validate"):
         v = sub.add_parser(name, help="check a model file (everything a run checks before its first step)")
@@ -319,6 +333,7 @@ def main(argv=None) -> int:
     )
     pl.add_argument("--labels", nargs="+")
     pl.add_argument("--title")
+    pl.add_argument("--overlay", action="store_true", help="all channels in one panel, with a legend")
     pl.set_defaults(func=_plot_split)
     cp = sub.add_parser("compare", help="overlay results files (first solid, second dashed)")
     cp.add_argument("results", nargs="+", help="results files (.nc)")
@@ -326,6 +341,7 @@ def main(argv=None) -> int:
     cp.add_argument("-o", "--output", default="compare.png", help="figure file: .png, .svg or .pdf")
     cp.add_argument("--labels", nargs="+")
     cp.add_argument("--title")
+    cp.add_argument("--overlay", action="store_true", help="all channels in one panel, with a legend")
     cp.set_defaults(func=lambda a: _plot(_with(a, sensors=a.sensors)))
     vw = sub.add_parser("view", help="a 3-D animation of a results file's motion, as one HTML page")
     vw.add_argument("results", help="results file (.nc) with field output")

@@ -59,6 +59,7 @@ def modes(
     if method not in ("auto", "dense", "sparse"):
         raise _core.ModelError(f'modes: method must be "auto", "dense" or "sparse", not {method!r}')
     data = static_model_data(model, load_steps)
+    data["simulation"]["fields"] = True  # the equilibrium's geometry, to draw the shapes
     sim = _core.Simulation(json.dumps(data))
     if preload:
         try:
@@ -69,6 +70,7 @@ def modes(
                 "linearize about the initial configuration instead with preload=False "
                 "(flexdyn modes --no-preload)"
             ) from None
+    geometry = _equilibrium_geometry(sim)
     n, (kp, ki, kv), (mr, mc, mv), (cr, cc, cv), labels = sim.linearize()
     k = sp.csc_matrix((kv, ki, kp), shape=(n, n))
     m = sp.csc_matrix((mv, (mr, mc)), shape=(n, n))
@@ -91,8 +93,10 @@ def modes(
     q_labels = [lab for lab, keep in zip(labels, q) if keep]
     node_dofs = [i for i, lab in enumerate(q_labels) if not lab.startswith("coord:")]
     shape = shapes_q[node_dofs, :].T
+    node_names, x0, topology = geometry
     return xr.Dataset(
         {
+            "node_position": (("node", "xyz"), x0, {"units": "m", "long_name": "equilibrium position"}),
             "omega": ("mode", omega, {"units": "rad/s"}),
             # Negative below an unstable equilibrium (ω is then shown as 0).
             "omega_squared": ("mode", omega2, {"units": "rad^2/s^2"}),
@@ -102,9 +106,26 @@ def modes(
             "decay_rate": ("mode", -roots.real, {"units": "1/s"}),
             "shape": (("mode", "dof"), shape, {"units": "mass-normalized"}),
         },
-        coords={"mode": np.arange(1, count + 1), "dof": [q_labels[i] for i in node_dofs]},
-        attrs={"model": data.get("name") or ""},
+        coords={
+            "mode": np.arange(1, count + 1),
+            "dof": [q_labels[i] for i in node_dofs],
+            "node": node_names,
+            "xyz": ["x", "y", "z"],
+        },
+        attrs={"model": data.get("name") or "", "flexdyn_topology": topology},
     )
+
+
+def _equilibrium_geometry(sim) -> tuple[list[str], np.ndarray, str]:
+    """Node names, their positions in the current (equilibrium) state and the topology JSON,
+    from the static run's last sample (its field columns: positions first)."""
+    layout = sim.field_layout
+    _, values = sim.take_samples()
+    topology = json.loads(layout["topology"])
+    n = len(topology["nodes"])
+    first = len(sim.channel_names)
+    x0 = values[-1, first : first + 3 * n].reshape(n, 3)
+    return topology["nodes"], x0, layout["topology"]
 
 
 def _shift(kqq_diag, mqq_diag):

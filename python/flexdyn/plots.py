@@ -1,28 +1,69 @@
-"""Time-history figures from results files: one panel per channel, one line per file (the first
-solid, the next dashed, as in the paper's case-1/case-2 figures)."""
+"""Figures from results files: channels against time (or against the load factor of static
+results) — one panel per channel laid out in a grid, or all of them `overlay`ed in one panel
+with a legend; several files drawn over one another (colours and line styles tell them
+apart, the first solid, as in the paper's case-1/case-2 figures) — and mode shapes from
+`modes`."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
+import numpy as np
 import xarray as xr
+
+from .fields import is_field_variable
 
 STYLES = ["-", "--", ":", "-."]
 
 
 def _channels(ds: xr.Dataset, wanted: list[str]) -> list[str]:
-    """The channels asked for: exact names, or a sensor name standing for all its channels."""
+    """The channels asked for: exact names, or a sensor name standing for all its channels
+    (its former spellings, kept as aliases, left out)."""
+    names = [n for n in ds.data_vars if not is_field_variable(n)]
+    aliases = _aliases(names)
     found = []
     for w in wanted:
-        if w in ds.data_vars:
+        if w in names:
             found.append(w)
             continue
-        parts = [n for n in ds.data_vars if n.startswith(w + ".")]
+        parts = [n for n in names if n.startswith(w + ".") and n not in aliases]
         if not parts:
-            known = ", ".join(sorted({n.split(".")[0] for n in ds.data_vars}))
+            known = ", ".join(sorted({n.split(".")[0] for n in names}))
             raise KeyError(f"no channel or sensor `{w}` in the results; they have: {known}")
         found.extend(parts)
     return found
+
+
+def _aliases(names: list[str]) -> set[str]:
+    """The former spellings `.x .y .z` that node_displacement (beside `.ux`) and node_rotation
+    (beside `.rx` and `.R11`) still carry: the same data twice in a whole-sensor plot."""
+    have, out = set(names), set()
+    for n in names:
+        sensor, _, comp = n.rpartition(".")
+        displacement = comp == "ux" and f"{sensor}.phi1" not in have
+        rotation = comp == "rx" and f"{sensor}.R11" in have
+        if displacement or rotation:
+            out |= {f"{sensor}.{c}" for c in "xyz"}
+    return out
+
+
+def _axis(ds: xr.Dataset) -> tuple[str, str]:
+    """The independent variable: time, or the load factor of static results."""
+    return ("load_factor", "load factor") if "load_factor" in ds.dims else ("time", "time [s]")
+
+
+def _grid(n: int) -> tuple[int, int]:
+    """Rows and columns for n panels: one column up to 4, then about 3 rows per 2 columns."""
+    if n <= 4:
+        return n, 1
+    cols = min(4, math.ceil(math.sqrt(n / 1.5)))
+    return math.ceil(n / cols), cols
+
+
+def _label(ds: xr.Dataset, name: str) -> str:
+    units = ds[name].attrs.get("units", "")
+    return f"{name} [{units}]" if units else name
 
 
 def plot(
@@ -31,39 +72,146 @@ def plot(
     out: str | Path,
     labels: list[str] | None = None,
     title: str | None = None,
+    overlay: bool = False,
 ) -> Path:
-    """Writes a figure (PNG, SVG or PDF by the extension of `out`) of `channels` against time,
-    overlaying the files. Returns the path written."""
+    """Writes a figure (PNG, SVG or PDF by the extension of `out`) of `channels` (or whole
+    sensors) against time or load factor, overlaying the files; `overlay` puts every channel
+    in one panel with a legend. Returns the path written."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     sets = [xr.open_dataset(f) for f in files]
-    names = _channels(sets[0], channels)
-    for f, ds in zip(files[1:], sets[1:]):
-        missing = [n for n in names if n not in ds.data_vars]
-        if missing:
-            raise KeyError(f"{f} has no channel {', '.join(missing)}")
-    labels = labels or [ds.attrs.get("model") or Path(f).stem for f, ds in zip(files, sets)]
-    fig, axes = plt.subplots(len(names), 1, sharex=True, figsize=(7, 1.2 + 2.0 * len(names)), squeeze=False)
-    for ax, name in zip(axes[:, 0], names):
+    try:
+        names = _channels(sets[0], channels)
+        for f, ds in zip(files[1:], sets[1:]):
+            missing = [n for n in names if n not in ds.data_vars]
+            if missing:
+                raise KeyError(f"{f} has no channel {', '.join(missing)}")
+        labels = labels or [ds.attrs.get("model") or Path(f).stem for f, ds in zip(files, sets)]
+        if len(labels) != len(sets):
+            raise ValueError(f"--labels: {len(labels)} labels for {len(sets)} results files")
+        fig = (_overlaid if overlay else _panels)(plt, sets, names, labels)
+        if title:
+            fig.suptitle(title)
+        fig.tight_layout()
+        out = Path(out)
+        fig.savefig(out)
+        plt.close(fig)
+    finally:
+        for ds in sets:
+            ds.close()
+    return out
+
+
+def _panels(plt, sets, names, labels):
+    rows, cols = _grid(len(names))
+    fig, axes = plt.subplots(
+        rows, cols, sharex=True, figsize=(4.2 * cols + 1.5, 1.2 + 2.0 * rows), squeeze=False
+    )
+    dim, xlabel = _axis(sets[0])
+    for ax, name in zip(axes.flat, names):
         for k, (ds, label) in enumerate(zip(sets, labels)):
-            ax.plot(
-                ds["time"].values, ds[name].values, STYLES[k % len(STYLES)], color="k", lw=1.0, label=label
-            )
-        units = sets[0][name].attrs.get("units", "")
-        ax.set_ylabel(f"{name} [{units}]" if units else name)
+            style = STYLES[k % len(STYLES)]
+            ax.plot(ds[dim].values, ds[name].values, style, color=f"C{k}", lw=1.2, label=label)
+        ax.set_title(_label(sets[0], name), fontsize="medium")
         ax.grid(alpha=0.3)
-    axes[-1, 0].set_xlabel("time [s]")
+    for ax in axes.flat[len(names) :]:
+        ax.set_visible(False)
+    for ax in axes[-1]:
+        ax.set_xlabel(xlabel)
+    for c in range(cols):  # the bottom visible panel of each column carries the x label
+        visible = [r for r in range(rows) if axes[r, c].get_visible()]
+        if visible:
+            axes[visible[-1], c].set_xlabel(xlabel)
+            axes[visible[-1], c].xaxis.set_tick_params(labelbottom=True)
     if len(sets) > 1:
         axes[0, 0].legend(loc="best", fontsize="small")
-    if title:
-        axes[0, 0].set_title(title)
+    return fig
+
+
+def _overlaid(plt, sets, names, labels):
+    fig, ax = plt.subplots(figsize=(8, 4.8))
+    dim, xlabel = _axis(sets[0])
+    for j, name in enumerate(names):
+        for k, (ds, label) in enumerate(zip(sets, labels)):
+            tag = _label(ds, name) + (f" — {label}" if len(sets) > 1 else "")
+            ax.plot(
+                ds[dim].values,
+                ds[name].values,
+                STYLES[k % len(STYLES)],
+                color=f"C{j % 10}",
+                lw=1.2,
+                label=tag,
+            )
+    units = {sets[0][n].attrs.get("units", "") for n in names}
+    if len(units) == 1 and "" not in units:
+        ax.set_ylabel(f"[{units.pop()}]")
+    ax.set_xlabel(xlabel)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best", fontsize="small", ncol=1 + len(names) // 8)
+    return fig
+
+
+def plot_modes(md: xr.Dataset, out: str | Path, count: int = 6, amplitude: float = 0.1) -> Path:
+    """Writes the first `count` mode shapes of a `modes` result to a figure: each beam's
+    reference line at the equilibrium (grey) and displaced along the mode (scaled so the
+    largest displacement is `amplitude` of the model's extent), titled with the frequency."""
+    import json
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    if "node_position" not in md:
+        raise KeyError("these modes carry no geometry (computed by an older flexdyn); compute them again")
+    topo = json.loads(md.attrs["flexdyn_topology"])
+    x0 = md["node_position"].values
+    shown = min(count, md.sizes["mode"])
+    rows, cols = math.ceil(shown / 3), min(3, shown)
+    fig = plt.figure(figsize=(4.2 * cols, 3.8 * rows))
+    extent = float(np.linalg.norm(x0.max(axis=0) - x0.min(axis=0))) or 1.0
+    for m in range(shown):
+        u = _mode_displacements(md, m, len(x0))
+        scale = amplitude * extent / max(float(np.abs(u).max()), 1e-300)
+        ax = fig.add_subplot(rows, cols, m + 1, projection="3d")
+        _draw_lines(ax, topo, x0, color="0.7", lw=1.0)
+        _draw_lines(ax, topo, x0 + scale * u, color="C0", lw=2.0)
+        f, z = float(md["frequency"][m]), float(md["damping_ratio"][m])
+        ax.set_title(f"mode {m + 1}: {f:.4g} Hz" + (f", ζ = {z:.3g}" if z else ""), fontsize="medium")
+        _equal_axes(ax, np.concatenate([x0, x0 + scale * u]))
     fig.tight_layout()
     out = Path(out)
     fig.savefig(out)
     plt.close(fig)
-    for ds in sets:
-        ds.close()
     return out
+
+
+def _mode_displacements(md: xr.Dataset, m: int, n_nodes: int) -> np.ndarray:
+    """Mode m's nodal translations `[node, 3]` (nodes without them stay put)."""
+    u = np.zeros((n_nodes, 3))
+    nodes = {str(name): k for k, name in enumerate(md["node"].values)}
+    for label, value in zip(md["dof"].values, md["shape"].values[m]):
+        node, _, comp = str(label).rpartition(".")
+        if comp in ("x", "y", "z") and node in nodes:
+            u[nodes[node], "xyz".index(comp)] = value
+    return u
+
+
+def _draw_lines(ax, topo, x, **style):
+    for b in topo["beams"]:
+        p = x[b["nodes"]]
+        ax.plot(p[:, 0], p[:, 1], p[:, 2], **style)
+    bodies = [b["node"] for b in topo["bodies"] if b["node"] is not None]
+    if bodies:
+        ax.plot(*x[bodies].T, "s", color=style["color"], ms=5)
+
+
+def _equal_axes(ax, pts):
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    centre, half = 0.5 * (lo + hi), 0.55 * max((hi - lo).max(), 1e-9)
+    ax.set(xlim=(centre[0] - half, centre[0] + half), ylim=(centre[1] - half, centre[1] + half))
+    ax.set(zlim=(centre[2] - half, centre[2] + half), xlabel="x", ylabel="y", zlabel="z")
+    ax.set_box_aspect((1, 1, 1))
