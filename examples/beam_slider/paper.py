@@ -1,9 +1,11 @@
 """Reproduces the paper's sections 7.1–7.2: runs the four beam-slider models in full, draws
 figures 9–21 (case 1 solid, case 2 dashed) and checks the paper's statements.
 
-    python examples/beam_slider/paper.py [--out DIR] [--figures DIR]
+    python examples/beam_slider/paper.py [--out DIR] [--figures DIR] [--views DIR]
 
-Results go to DIR (default `paper_results/`), figures to `docs/figures/`, and the table of the
+Results go to DIR (default `paper_results/`), figures to `docs/figures/`, the 3-D views of
+the sliding cases (`flexdyn view`: the slider travelling along the beam) to `docs/views/`,
+and the table of the
 paper's statements against flexdyn's numbers is printed (Markdown) and written to
 `docs/figures/claims.md`. `--study` adds the step and mesh convergence study of case 1's peaks.
 """
@@ -186,6 +188,32 @@ def figures(out: Path, figdir: Path):
         )
 
 
+#: (page, results stem, colour, deformation scale, title) of the docs' 3-D views.
+VIEWS = [
+    ("beam_slider", "case1", "M3", 1.0, "Beam slider, case 1 (sliding joint): section 7.1"),
+    (
+        "twisted_beam_slider",
+        "twisted_case1",
+        "M1",
+        1.0,
+        "Twisted beam slider, case 1 (sliding screw joint): 7.2",
+    ),
+]
+
+
+def views(out: Path, viewdir: Path):
+    """The sliding cases' motion as HTML pages sharing one plotly.min.js (works offline)."""
+    for page, stem, color, scale, title in VIEWS:
+        fd.view(
+            out / f"{stem}.nc",
+            viewdir / f"{page}.html",
+            color=color,
+            scale=scale,
+            title=title,
+            plotly_js="beside",
+        )
+
+
 def study():
     """Step and mesh convergence of case 1's peaks, against a fine fixed-step run."""
     channels = ["beam_tip_u2", "beam_mid_F1", "beam_mid_M3", "driver_mid_F1", "drive_force"]
@@ -215,10 +243,12 @@ def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", type=Path, default=Path("paper_results"))
     p.add_argument("--figures", type=Path, default=HERE.parent.parent / "docs" / "figures")
+    p.add_argument("--views", type=Path, default=HERE.parent.parent / "docs" / "views")
     p.add_argument("--study", action="store_true", help="also run the convergence study of case 1")
     args = p.parse_args()
     results = run_all(args.out)
     figures(args.out, args.figures)
+    views(args.out, args.views)
     table = claims(results)
     (args.figures / "claims.md").write_text(table)
     print(table)

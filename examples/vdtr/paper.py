@@ -1,12 +1,14 @@
 """Reproduces the paper's section 7.3: runs the variable-diameter tilt-rotor conversion (20 s),
 draws figures like 25–29 and checks the paper's statements.
 
-    python examples/vdtr/paper.py [--out DIR] [--figures DIR] [--reuse] [--study]
+    python examples/vdtr/paper.py [--out DIR] [--figures DIR] [--views DIR] [--reuse] [--study]
 
 The run goes to DIR/vdtr.nc (default `paper_results/`; `--reuse` plots an existing file),
 figures to `docs/figures/` (fig25–fig29 and fig30, the retraction's drive torque), and the
 table of the paper's statements against flexdyn's numbers is printed (Markdown) and written
-to `docs/figures/vdtr_claims.md`, with the run's cost. `--study` instead runs the step and
+to `docs/figures/vdtr_claims.md`, with the run's cost; the 3-D view of the conversion (the
+blades retracting as the rotor tilts) goes to `docs/views/vdtr.html`. `--study` instead runs
+the step and
 mesh convergence study of the first 4 s.
 """
 
@@ -242,6 +244,7 @@ def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", type=Path, default=Path("paper_results"))
     p.add_argument("--figures", type=Path, default=HERE.parent.parent / "docs" / "figures")
+    p.add_argument("--views", type=Path, default=HERE.parent.parent / "docs" / "views")
     p.add_argument("--reuse", action="store_true", help="plot and check an existing DIR/vdtr.nc")
     p.add_argument("--study", action="store_true", help="only the step and mesh convergence study")
     args = p.parse_args()
@@ -255,6 +258,8 @@ def main():
     else:
         res, cost = run(args.out)
     figures(res_file, args.figures)
+    title = "Variable-diameter tilt-rotor conversion: section 7.3"
+    fd.view(res_file, args.views / "vdtr.html", color="M2", title=title, plotly_js="beside")
     table = claims(res)
     (args.figures / "vdtr_claims.md").write_text(table + "\n" + cost + "\n")
     print(table)

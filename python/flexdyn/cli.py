@@ -351,7 +351,11 @@ def main(argv=None) -> int:
     )
     vw.add_argument("--scale", type=float, default=1.0, help="deformation scale factor (default 1)")
     vw.add_argument("--max-frames", type=int, default=400, help="frames at most, evenly spread (default 400)")
-    vw.add_argument("--ribbon-width", type=float, help="ribbon width, m (default 3 %% of the model's extent)")
+    vw.add_argument(
+        "--ribbon-width",
+        type=float,
+        help="ribbon width, m (default 3 %% of the model's extent, at most a tenth of the median beam length)",
+    )
     vw.add_argument(
         "--plotly-js",
         choices=["inline", "beside"],

@@ -32,11 +32,12 @@ def _extent(mo: Motion) -> float:
 
 
 def _ribbon_width(mo: Motion, extent: float, given: float | None) -> float:
-    """Given, else 3 % of the model's extent and at most a quarter of its shortest beam."""
+    """Given, else 3 % of the model's extent and at most a tenth of its median beam's length
+    (a ribbon wider than a typical beam is long would hide it)."""
     if given is not None:
         return float(given)
     lengths = [b["length"] for b in mo.topology["beams"]]
-    return min([0.03 * extent] + [0.25 * min(lengths)] * bool(lengths))
+    return min([0.03 * extent] + [0.1 * float(np.median(lengths))] * bool(lengths))
 
 
 def _loads(mo: Motion, frames: np.ndarray) -> tuple[dict, dict]:

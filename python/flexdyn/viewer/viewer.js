@@ -150,12 +150,21 @@
     margin: { l: 0, r: 0, t: 40, b: 0 },
     uirevision: "keep",
     legend: { x: 0, y: 1 },
-    scene: { aspectmode: "data", xaxis: { title: "x [m]" }, yaxis: { title: "y [m]" }, zaxis: { title: "z [m]" } },
+    scene: { aspectmode: "manual", xaxis: { title: "x [m]" }, yaxis: { title: "y [m]" }, zaxis: { title: "z [m]" } },
   };
 
+  // Fixed ranges (the scene must not rescale as the model moves) in true proportions.
   function setRanges() {
-    const r = bounds();
+    const r = bounds(), spans = r.map(([lo, hi]) => hi - lo), top = Math.max(...spans);
     ["xaxis", "yaxis", "zaxis"].forEach((ax, a) => { layout.scene[ax].range = r[a]; layout.scene[ax].autorange = false; });
+    layout.scene.aspectmode = "manual";
+    layout.scene.aspectratio = { x: spans[0] / top, y: spans[1] / top, z: spans[2] / top };
+    if (!layout.scene.camera) {
+      // Look mostly along the model's thinnest direction: a planar mechanism shows its plane.
+      const thin = spans.indexOf(Math.min(...spans)), eye = [0.9, -1.3, 0.9];
+      const w = eye.map((e, a) => (a === thin ? Math.sign(e) * 1.7 : 0.8 * e));
+      layout.scene.camera = { eye: { x: w[0], y: w[1], z: w[2] }, up: { x: 0, y: 0, z: 1 } };
+    }
   }
 
   const plot = document.getElementById("flexdyn-plot");
