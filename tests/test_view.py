@@ -4,15 +4,18 @@ anything, its canvas is drawn, and its controls (frames, play, scale, colouring)
 
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import flexdyn as fd
-from flexdyn.viewer import scene_data, write_html
+from flexdyn.viewer import scene, scene_data, write_html
 
 from browser import open_page
 from test_fields import swinging_sleeve
+
+ROOT = Path(__file__).resolve().parent.parent
 
 
 @pytest.fixture(scope="module")
@@ -112,3 +115,46 @@ def test_view_command_and_its_errors(results, tmp_path):
     nofields = run("view", str(plain))
     assert nofields.returncode == 2 and "no field output" in nofields.stderr
     assert "Traceback" not in missing.stderr + nofields.stderr
+
+
+def test_rigid_links_show_as_boxes_along_them_and_arms_that_meet(tmp_path):
+    """A rigid four-bar (no beams): each body's box lies along its principal axes (a bar's
+    inertia given about tilted axes), arms from the nodes reach the joints, both sides of a
+    joint meet there, and the page renders without errors."""
+    res = fd.simulate(fd.load(ROOT / "examples" / "four_bar.yaml"), t_end=0.3, output_dt=0.01)
+    mo = fd.fields.motion(res)
+    frames = np.arange(len(mo.times))
+    arms, arm_nodes = scene.joint_arms(mo, frames)
+    ends = mo.positions[:, arm_nodes] + arms
+    # The coupler's two joints each join it to a neighbour: every arm end has a partner.
+    for k in range(ends.shape[1]):
+        gaps = np.linalg.norm(ends - ends[:, k : k + 1], axis=2).max(axis=0)
+        gaps[k] = np.inf
+        ground = [j for j in mo.topology["joints"] if any(s["node"] is None for s in j["sides"])]
+        assert gaps.min() < 1e-9 or ground  # a joint to the ground has one arm only
+    corners, _ = scene.body_boxes(mo, frames[:1], 10.0)
+    for b, body in enumerate(mo.topology["bodies"]):
+        _, v = np.linalg.eigh(np.asarray(body["inertia"]))
+        rel = corners[0, b] - corners[0, b].mean(axis=0)
+        # In the principal frame the box is axis-aligned: corner coordinates take two values.
+        principal = rel @ v
+        assert all(len(np.unique(np.round(principal[:, a], 9))) == 2 for a in range(3))
+        # The longest side lies along the smallest principal inertia (the bar's axis).
+        assert np.ptp(principal[:, 0]) == pytest.approx(np.ptp(principal, axis=0).max())
+    page_file = write_html(res, tmp_path / "four_bar.html")
+    with open_page(page_file) as page:
+        page.page.wait_for_function("window.flexdynView && window.flexdynView.ready", timeout=30000)
+        assert page.errors() == [] and page.requests == []
+
+
+@pytest.mark.parametrize("name", ["beam_slider", "twisted_beam_slider", "vdtr"])
+def test_the_docs_views_open_offline_without_errors(name):
+    """The pages the paper scripts wrote into docs/views (sharing plotly.min.js) work."""
+    page_file = ROOT / "docs" / "views" / f"{name}.html"
+    with open_page(page_file) as page:
+        page.page.wait_for_function("window.flexdynView && window.flexdynView.ready", timeout=60000)
+        frames = page.page.evaluate("window.flexdynView.frames")
+        page.page.evaluate(f"window.flexdynView.show({frames // 2})")
+        page.page.wait_for_timeout(200)
+        assert page.errors() == [] and page.requests == []
+    assert frames > 100

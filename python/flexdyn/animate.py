@@ -82,6 +82,8 @@ def animate(
     if color is not None and color not in scene.COMPONENTS:
         raise ValueError(f"color: `{color}` is not a section load; use one of {', '.join(scene.COMPONENTS)}")
     mo = motion(results)
+    if color is not None and not mo.topology["beams"]:
+        raise ValueError(f"color: the model has no beams to colour by {color}")
     frames = scene.frame_indices(mo.times, max_frames)
     nodes, contacts = _display(mo, frames, scale)
     fig = plt.figure(figsize=(6.4, 5.4))
@@ -97,8 +99,9 @@ def animate(
         beams.set_array(_segment_loads(mo, frames[0], color))
         unit = "N" if color.startswith("F") else "N·m"
         fig.colorbar(beams, ax=ax, shrink=0.6, label=f"{color} [{unit}]")
-    ax.add_collection3d(beams)
-    ax.add_collection3d(line)
+    if mo.topology["beams"]:  # matplotlib cannot add an empty 3-D collection
+        ax.add_collection3d(beams)
+        ax.add_collection3d(line)
     body_nodes = [b["node"] for b in mo.topology["bodies"] if b["node"] is not None]
     _, joint_nodes, _ = scene.joint_points(mo, frames[:1])
     bodies = ax.plot([], [], [], "s", color="#d9a441", ms=9, mec="k", label="bodies")[0]

@@ -37,7 +37,9 @@ def _ribbon_width(mo: Motion, extent: float, given: float | None) -> float:
     if given is not None:
         return float(given)
     lengths = [b["length"] for b in mo.topology["beams"]]
-    return min([0.03 * extent] + [0.1 * float(np.median(lengths))] * bool(lengths))
+    if not lengths:
+        return 0.03 * extent
+    return min(0.03 * extent, 0.1 * float(np.median(lengths)))
 
 
 def _loads(mo: Motion, frames: np.ndarray) -> tuple[dict, dict]:
@@ -62,6 +64,7 @@ def scene_data(mo: Motion, *, color=None, scale=1.0, max_frames=400, ribbon_widt
     d = scene.elastic_displacements(mo)
     corners, body_nodes = scene.body_boxes(mo, frames, extent)
     jrel, joint_nodes, joint_labels = scene.joint_points(mo, frames)
+    arms, arm_nodes = scene.joint_arms(mo, frames)
     loads, ranges = _loads(mo, frames)
     first, beams = 0, []
     for b in mo.topology["beams"]:
@@ -85,6 +88,7 @@ def scene_data(mo: Motion, *, color=None, scale=1.0, max_frames=400, ribbon_widt
         "load_units": LOAD_UNITS,
         "bodies": {"nodes": body_nodes, "corners": _b64(corners)},
         "joints": {"nodes": joint_nodes, "labels": joint_labels, "rel": _b64(jrel)},
+        "arms": {"nodes": arm_nodes, "rel": _b64(arms)},
         "ground": [[*p, label] for p, label in scene.ground_points(mo)],
         "contacts": {
             "labels": [c["name"] for c in mo.topology["contacts"]],
@@ -121,6 +125,8 @@ def write_html(
     if not scale >= 0:
         raise ValueError(f"scale: must be a number ≥ 0 (got {scale})")
     mo = motion(results)
+    if color is not None and not mo.topology["beams"]:
+        raise ValueError(f"color: the model has no beams to colour by {color}")
     name = title or _model_name(results) or "flexdyn results"
     data = scene_data(
         mo, color=color, scale=scale, max_frames=max_frames, ribbon_width=ribbon_width, title=name

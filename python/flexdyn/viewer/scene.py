@@ -44,16 +44,17 @@ def _conjugate(q: np.ndarray) -> np.ndarray:
 
 
 def _box_corners(mass: float, inertia, scale: float) -> np.ndarray:
-    """`[8, 3]` corners (node triad) of the uniform box with the body's principal inertias
-    (its size shows its mass distribution); a cube of side `scale` when they give none."""
-    j = np.linalg.eigvalsh(np.asarray(inertia, dtype=float))
+    """`[8, 3]` corners (node triad) of the uniform box with the body's principal inertias,
+    along its principal axes (its size and lie show its mass distribution); a cube of side
+    `scale` when they give none."""
+    j, axes = np.linalg.eigh(np.asarray(inertia, dtype=float))
     sq = np.array([j[1] + j[2] - j[0], j[0] + j[2] - j[1], j[0] + j[1] - j[2]]) * 6.0 / max(mass, 1e-300)
     half = 0.5 * np.sqrt(np.clip(sq, 0.0, None))
     if not np.all(np.isfinite(half)) or half.max() <= 0:
         half = np.full(3, 0.5 * scale)
     half = np.clip(half, 0.05 * half.max(), None)  # a flat body still shows
     signs = np.array([[(k >> a) & 1 for a in range(3)] for k in range(8)]) * 2.0 - 1.0
-    return signs * half
+    return (signs * half) @ axes.T
 
 
 def body_boxes(mo: Motion, frames: np.ndarray, extent: float) -> tuple[np.ndarray, list[int]]:
@@ -64,7 +65,9 @@ def body_boxes(mo: Motion, frames: np.ndarray, extent: float) -> tuple[np.ndarra
         if b["node"] is None:
             continue
         corners = _box_corners(b["mass"], b["inertia"], 0.02 * extent)
-        corners = np.clip(corners, -0.1 * extent, 0.1 * extent) + np.asarray(b["cm_offset"])
+        # A box of absurd size (a point mass carried far from its node) shrinks, keeping shape.
+        corners *= min(1.0, 0.25 * extent / max(np.abs(corners).max(), 1e-300))
+        corners = corners + np.asarray(b["cm_offset"])
         q = mo.orientations[frames, b["node"]][:, None]
         rel.append(_rotate(q, np.broadcast_to(corners, (len(frames), 8, 3))))
         nodes.append(b["node"])
@@ -88,6 +91,24 @@ def joint_points(mo: Motion, frames: np.ndarray) -> tuple[np.ndarray, list[int],
     if not rel:
         return np.zeros((len(frames), 0, 3)), nodes, labels
     return np.stack(rel, axis=1), nodes, labels
+
+
+def joint_arms(mo: Motion, frames: np.ndarray) -> tuple[np.ndarray, list[int]]:
+    """`[F, K, 3]` the attachment point of every joint side on a node relative to that node,
+    for sides whose point is off the node (≥ 1e-9 of the model's size): drawn as thin arms
+    from a body's node to its joints, so a rigid link shows as a bar between its joints."""
+    rel, nodes = [], []
+    for j in mo.topology["joints"]:
+        for side in j["sides"]:
+            offset = np.asarray(side.get("offset", (0.0, 0.0, 0.0)))
+            if side["node"] is None or np.linalg.norm(offset) <= 1e-9 * mo.topology["length_ref"]:
+                continue
+            q = mo.orientations[frames, side["node"]]
+            rel.append(_rotate(q, np.broadcast_to(offset, (len(frames), 3))))
+            nodes.append(side["node"])
+    if not rel:
+        return np.zeros((len(frames), 0, 3)), nodes
+    return np.stack(rel, axis=1), nodes
 
 
 def ground_points(mo: Motion) -> list[tuple[list[float], str]]:

@@ -13,9 +13,10 @@
   const X = decode(D.x), DX = decode(D.d), E2 = decode(D.e2);
   const LOADS = {};
   for (const k in D.loads) LOADS[k] = decode(D.loads[k]);
-  const BODY = decode(D.bodies.corners), JREL = decode(D.joints.rel);
+  const BODY = decode(D.bodies.corners), JREL = decode(D.joints.rel), ARMS = decode(D.arms.rel);
   const CX = decode(D.contacts.x), CD = decode(D.contacts.d);
   const B = D.bodies.nodes.length, J = D.joints.nodes.length, S = D.contacts.labels.length;
+  const K = D.arms.nodes.length;
   const state = { frame: 0, scale: D.scale, color: D.color, playing: false };
 
   // Displayed node positions of frame f: x + (scale − 1)·d (only beams' elastic part grows).
@@ -95,6 +96,18 @@
     return { x, y, z };
   }
 
+  // Arms from nodes to their joints' attachment points: a rigid link shows as a bar.
+  function arms(p, f) {
+    const x = [], y = [], z = [];
+    for (let m = 0; m < K; m++) {
+      const n = D.arms.nodes[m], q = 3 * (K * f + m);
+      x.push(p[3 * n], p[3 * n] + ARMS[q], null);
+      y.push(p[3 * n + 1], p[3 * n + 1] + ARMS[q + 1], null);
+      z.push(p[3 * n + 2], p[3 * n + 2] + ARMS[q + 2], null);
+    }
+    return { x, y, z };
+  }
+
   function contacts(f) {
     const x = [], y = [], z = [], s = state.scale - 1;
     for (let c = 0; c < S; c++) {
@@ -127,6 +140,7 @@
       x: D.ground.map((g) => g[0]), y: D.ground.map((g) => g[1]), z: D.ground.map((g) => g[2]),
       marker: { symbol: "square", size: 5, color: "#000" },
     },
+    { type: "scatter3d", mode: "lines", name: "links", line: { color: "#8a6d3b", width: 6 }, hoverinfo: "skip" },
   ];
 
   function bounds() {
@@ -184,6 +198,7 @@
     Object.assign(traces[2], boxes(p, f));
     Object.assign(traces[3], points(p, f, JREL, D.joints.nodes, J));
     Object.assign(traces[4], contacts(f));
+    Object.assign(traces[6], arms(p, f));
     layout.datarevision = (layout.datarevision || 0) + 1;
     document.getElementById("flexdyn-time").textContent = `${D.dim} = ${D.times[f].toFixed(4)} ${D.unit}`;
     document.getElementById("flexdyn-slider").value = f;
@@ -236,6 +251,9 @@
     color.addEventListener("change", () => { state.color = color.value; draw(); });
   }
 
+  // Legend entries only for what the model has.
+  const counts = [D.beams.length, D.points, B, J, S, D.ground.length, K];
+  counts.forEach((n, t) => { traces[t].showlegend = n > 0; });
   controls();
   setRanges();
   window.flexdynView = { frames: F, state, show, play, ready: false };
