@@ -13,6 +13,9 @@ use crate::sensors::section_loads_at;
 use crate::state::State;
 use crate::system::System;
 
+/// A Gauss point's strains and section loads (`BeamElement::gauss_values`).
+type GaussValues = ([f64; 6], [f64; 6]);
+
 /// Field output is recorded by default when the run's estimated field data stay below this
 /// many bytes (a 200-node model sampled 1000 times takes ~11 MB).
 pub const AUTO_FIELDS_BYTES: f64 = 100e6;
@@ -85,7 +88,7 @@ impl Fields {
     pub fn sample(&self, sys: &System, state: &State, out: &mut Vec<f64>) {
         out.extend(state.nodes.iter().flat_map(|n| n.x.0));
         out.extend(state.nodes.iter().flat_map(|n| quaternion(&n.r)));
-        let mut cached: Option<(usize, Vec<([f64; 6], [f64; 6])>)> = None;
+        let mut cached: Option<(usize, Vec<GaussValues>)> = None;
         let first = out.len();
         // Forces of every point, then moments: room for both halves first.
         out.resize(first + POINT_COLUMNS * self.points.len(), 0.0);
@@ -119,7 +122,12 @@ pub fn quaternion(rm: &M3<f64>) -> [f64; 4] {
     } else {
         (0.5 * angle).sin() / angle
     };
-    [(0.5 * angle).cos(), s * phi.0[0], s * phi.0[1], s * phi.0[2]]
+    [
+        (0.5 * angle).cos(),
+        s * phi.0[0],
+        s * phi.0[1],
+        s * phi.0[2],
+    ]
 }
 
 /// Expected number of samples of a run: one per `output_dt`, else one per step of `dt`
@@ -146,7 +154,11 @@ pub fn fields_enabled(settings: &SimulationSettings, fields: &Fields) -> bool {
 /// joints (type, the nodes of their two sides, `null` for the ground, the attachment points
 /// in the nodes' triads) and sliding joints (beam, follower, index among the contacts).
 pub fn topology(model: &Model, sys: &System) -> Value {
-    let beams: Vec<Value> = sys.beam_info.iter().map(|b| beam_topology(b, sys)).collect();
+    let beams: Vec<Value> = sys
+        .beam_info
+        .iter()
+        .map(|b| beam_topology(b, sys))
+        .collect();
     let bodies: Vec<Value> = model
         .bodies
         .iter()
@@ -222,4 +234,53 @@ fn pair_topology(k: &crate::joints::JointKernel, kind: &str) -> Value {
         })
         .collect();
     json!({"name": k.name, "type": kind, "sides": sides})
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::rotation::exp_map;
+    use crate::math::vec3::V3;
+
+    /// `R` rebuilt from a unit quaternion (w, x, y, z).
+    fn matrix(q: [f64; 4]) -> M3<f64> {
+        let [w, x, y, z] = q;
+        M3([
+            [
+                1.0 - 2.0 * (y * y + z * z),
+                2.0 * (x * y - w * z),
+                2.0 * (x * z + w * y),
+            ],
+            [
+                2.0 * (x * y + w * z),
+                1.0 - 2.0 * (x * x + z * z),
+                2.0 * (y * z - w * x),
+            ],
+            [
+                2.0 * (x * z - w * y),
+                2.0 * (y * z + w * x),
+                1.0 - 2.0 * (x * x + y * y),
+            ],
+        ])
+    }
+
+    #[test]
+    fn quaternions_rebuild_their_rotation_to_round_off_up_to_a_half_turn() {
+        // Angles from 0 (the series branch) through π (log_map's symmetric-part branch).
+        for (k, angle) in [0.0, 1e-10, 1e-3, 0.7, 2.0, 3.1, std::f64::consts::PI]
+            .into_iter()
+            .enumerate()
+        {
+            let axis = V3([1.0, -2.0 + k as f64, 0.5]);
+            let rm = exp_map(&axis.scale_f(angle / axis.norm()));
+            let q = quaternion(&rm);
+            let norm: f64 = q.iter().map(|c| c * c).sum();
+            assert!((norm - 1.0).abs() < 1e-15, "unit: {norm}");
+            assert!(q[0] >= 0.0);
+            let err = (matrix(q) - rm).max_abs();
+            // A few ε of the unit entries (log_map takes the axis near a half turn from R's
+            // symmetric part, through a square root).
+            assert!(err < 2e-15, "angle {angle}: {err:e}");
+        }
+    }
 }
