@@ -166,14 +166,27 @@ def _field_estimate(sim, settings: dict) -> str:
     return f"{size}; {'recorded' if on else 'not recorded'} ({why})"
 
 
-def _plot(args) -> int:
-    from .plots import plot
-
-    for f in args.results:
+def _writing(results: list, make, message: str = "wrote {}") -> int:
+    """Checks that the results files exist, calls `make()` (which writes a file and returns
+    its path) and says so; its KeyError or ValueError (an unknown channel, a bad option, no
+    field output) is a usage error in one line."""
+    for f in results:
         if not Path(f).is_file():
             raise _core.ModelError(f"{f}: no such results file")
     try:
-        out = plot(
+        out = make()
+    except (KeyError, ValueError) as e:
+        print(f"error: {str(e).strip(chr(39))}", file=sys.stderr)
+        return EXIT_USAGE
+    print(message.format(out))
+    return 0
+
+
+def _plot(args) -> int:
+    from .plots import plot
+
+    def make():
+        return plot(
             args.results,
             args.sensors,
             args.output,
@@ -181,73 +194,40 @@ def _plot(args) -> int:
             title=args.title,
             overlay=args.overlay,
         )
-    except (KeyError, ValueError) as e:
-        print(f"error: {str(e).strip(chr(39))}", file=sys.stderr)
-        return EXIT_USAGE
-    print(f"wrote {out}")
-    return 0
 
-
-def _results_file(path) -> None:
-    if not Path(path).is_file():
-        raise _core.ModelError(f"{path}: no such results file")
+    return _writing(args.results, make)
 
 
 def _view(args) -> int:
     from .viewer import write_html
 
-    _results_file(args.results)
+    options = {"color": args.color, "scale": args.scale, "max_frames": args.max_frames}
+    options |= {"ribbon_width": args.ribbon_width, "plotly_js": args.plotly_js}
     out = args.output or str(Path(args.results).with_suffix(".html"))
-    try:
-        write_html(
-            args.results,
-            out,
-            color=args.color,
-            scale=args.scale,
-            max_frames=args.max_frames,
-            ribbon_width=args.ribbon_width,
-            plotly_js=args.plotly_js,
-        )
-    except (KeyError, ValueError) as e:
-        print(f"error: {str(e).strip(chr(39))}", file=sys.stderr)
-        return EXIT_USAGE
-    print(f"wrote {out}")
-    return 0
+    return _writing([args.results], lambda: write_html(args.results, out, **options))
 
 
 def _export(args) -> int:
     from .export import export_vtk
 
-    _results_file(args.results)
+    make = lambda: export_vtk(args.results, args.vtk, name=args.name)
+    return _writing([args.results], make, "wrote {} (open it in ParaView)")
+
+
+def _camera(text: str) -> tuple[float, float]:
     try:
-        pvd = export_vtk(args.results, args.vtk, name=args.name)
-    except KeyError as e:
-        print(f"error: {str(e).strip(chr(39))}", file=sys.stderr)
-        return EXIT_USAGE
-    print(f"wrote {pvd} (open it in ParaView)")
-    return 0
+        elevation, azimuth = (float(v) for v in text.split(","))
+    except ValueError:
+        raise ValueError(f"--view: give elevation,azimuth in degrees, e.g. 25,-60 (got `{text}`)") from None
+    return elevation, azimuth
 
 
 def _animate(args) -> int:
     from .animate import animate
 
-    _results_file(args.results)
-    view = tuple(float(v) for v in args.view.split(","))
-    try:
-        out = animate(
-            args.results,
-            args.output,
-            fps=args.fps,
-            max_frames=args.max_frames,
-            scale=args.scale,
-            color=args.color,
-            view=view,
-        )
-    except (KeyError, ValueError) as e:
-        print(f"error: {str(e).strip(chr(39))}", file=sys.stderr)
-        return EXIT_USAGE
-    print(f"wrote {out}")
-    return 0
+    options = {"fps": args.fps, "max_frames": args.max_frames, "scale": args.scale, "color": args.color}
+    make = lambda: animate(args.results, args.output, view=_camera(args.view), **options)
+    return _writing([args.results], make)
 
 
 def _with(args, **fields):
