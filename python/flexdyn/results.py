@@ -137,8 +137,7 @@ def simulate(
     if out is not None:
         arrays, dims = layout.netcdf(dim) if layout else ((), {})
         writer = AppendOnlyNetcdf(out, names, units, attrs, dim, dim_units, arrays, dims)
-    run = _Run(sim, writer, on_chunk, progress)
-    run.layout, run.n_channels = layout, len(names)
+    run = _Run(sim, writer, on_chunk, progress, layout)
     with _StopRequests() as stop:
         try:
             run.loop(stop)
@@ -240,13 +239,14 @@ class Interrupted(KeyboardInterrupt):
 class _Run:
     """One run's loop: advance, hand samples to the file and the caller, stop cleanly."""
 
-    def __init__(self, sim, writer, on_chunk, progress):
+    def __init__(self, sim, writer, on_chunk, progress, layout=None):
         self.sim, self.writer, self.on_chunk, self.progress = sim, writer, on_chunk, progress
         self.chunks_t, self.chunks_v = [], []
         self.pending, self.pending_rows = [], 0
         self.start = self.last_flush = time.perf_counter()
         self.error = None
-        self.layout, self.n_channels = None, None
+        # Field columns (if recorded) follow the channels in every sample.
+        self.layout, self.n_channels = layout, len(sim.channel_names)
         self.completed = False
         self.stats = {}
 
