@@ -15,12 +15,31 @@ from . import _core
 EXIT_USAGE, EXIT_RUN = 2, 3
 
 
+def _model(args):
+    """The model file's path, or the model with `--set` overrides applied (validated)."""
+    if not getattr(args, "set", None):
+        return args.model
+    from .builder import load
+    from .overrides import parse_assignment
+
+    return load(args.model).with_(dict(parse_assignment(a) for a in args.set))
+
+
+def _loaded(args):
+    """The model as a `Model`, with its overrides."""
+    from .builder import load
+
+    model = _model(args)
+    return load(model) if isinstance(model, (str, Path)) else model
+
+
 def _run(args) -> int:
     from .results import Interrupted, simulate
 
+    model = _model(args)
     try:
         res = simulate(
-            args.model,
+            model,
             t_end=args.t_end,
             dt=args.dt,
             scheme=args.scheme,
@@ -75,7 +94,7 @@ def _channel_names(ds) -> list[str]:
 def _modes(args) -> int:
     from .modes import modes
 
-    md = modes(args.model, args.count, preload=not args.no_preload, method=args.method)
+    md = modes(_model(args), args.count, preload=not args.no_preload, method=args.method)
     print(f"{'mode':>4}  {'omega [rad/s]':>14}  {'f [Hz]':>12}")
     for k, w, f in zip(md.mode.values, md.omega.values, md.frequency.values):
         print(f"{k:>4}  {w:>14.6g}  {f:>12.6g}")
@@ -86,15 +105,13 @@ def _modes(args) -> int:
     return 0
 
 
-def _compiled(path):
-    """The model file loaded and compiled (every check a run makes before its first step), or
-    None after printing why it cannot be."""
+def _compiled(args):
+    """The model file loaded (with its overrides) and compiled (every check a run makes
+    before its first step), or None after printing why it cannot be."""
     import json
 
-    from .builder import load
-
     try:
-        m = load(path)
+        m = _loaded(args)
         return m, _core.Simulation(json.dumps(m.to_dict()))
     except _core.FlexdynError as e:
         _error(e)
@@ -102,7 +119,7 @@ def _compiled(path):
 
 
 def _validate(args) -> int:
-    if (compiled := _compiled(args.model)) is None:
+    if (compiled := _compiled(args)) is None:
         return 2
     m, sim = compiled
     for w in sim.warnings:
@@ -112,7 +129,7 @@ def _validate(args) -> int:
 
 
 def _info(args) -> int:
-    if (compiled := _compiled(args.model)) is None:
+    if (compiled := _compiled(args)) is None:
         return 2
     m, sim = compiled
     d, n = m.data, sim.size
@@ -237,9 +254,7 @@ def _with(args, **fields):
 
 
 def _expand(args) -> int:
-    from .builder import load
-
-    text = load(args.model).expanded().to_yaml(args.output)
+    text = _loaded(args).expanded().to_yaml(args.output)
     if not args.output:
         print(text, end="")
     return 0
@@ -255,6 +270,18 @@ def _plot_split(args) -> int:
     return _plot(_with(args, results=files, sensors=channels))
 
 
+def _model_argument(parser):
+    """The model file, and `--set PATH=VALUE` overrides of its values."""
+    parser.add_argument("model")
+    parser.add_argument(
+        "--set",
+        action="append",
+        metavar="PATH=VALUE",
+        help="change a value of the model without editing it, e.g. --set joints.slider.spring.stiffness=2e4 "
+        "(a key, an item's name, keys inside it; repeatable; checked like the file)",
+    )
+
+
 def _version_line() -> str:
     """`flexdyn X (core Y)`: the package and its compiled core, which a stale build sets apart."""
     from . import __version__
@@ -267,7 +294,7 @@ def main(argv=None) -> int:
     p.add_argument("--version", action="version", version=_version_line())
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run a model file and write its sensors to NetCDF")
-    r.add_argument("model")
+    _model_argument(r)
     r.add_argument("-o", "--output", help="results file (.nc)")
     r.add_argument("--scheme", choices=["ep", "ed"])
     r.add_argument("--t-end", type=float)
@@ -285,7 +312,7 @@ def main(argv=None) -> int:
     r.add_argument("-q", "--quiet", action="store_true")
     r.set_defaults(func=_run)
     md = sub.add_parser("modes", help="natural frequencies about the static equilibrium")
-    md.add_argument("model")
+    _model_argument(md)
     md.add_argument("-n", "--count", type=int, default=10, help="number of modes (default 10)")
     md.add_argument("--no-preload", action="store_true", help="linearize about the initial configuration")
     md.add_argument(
@@ -301,10 +328,10 @@ def main(argv=None) -> int:
     md.set_defaults(func=_modes)
     for name in ("check", "validate"):
         v = sub.add_parser(name, help="check a model file (everything a run checks before its first step)")
-        v.add_argument("model")
+        _model_argument(v)
         v.set_defaults(func=_validate)
     i = sub.add_parser("info", help="describe a model: bodies, beams, joints, DOFs, constraints")
-    i.add_argument("model")
+    _model_argument(i)
     i.set_defaults(func=_info)
     pl = sub.add_parser("plot", help="plot channels of one or more results files against time")
     pl.add_argument("results", nargs="+", help="results files (.nc), then the channels or sensors")
@@ -362,7 +389,7 @@ def main(argv=None) -> int:
     e = sub.add_parser(
         "expand", help="print a model file with its patterns expanded and frames placed (YAML)"
     )
-    e.add_argument("model")
+    _model_argument(e)
     e.add_argument("-o", "--output", help="write the expanded model to this file instead")
     e.set_defaults(func=_expand)
     s = sub.add_parser("schema", help="print the JSON Schema of model files")
