@@ -19,6 +19,7 @@ from .fields import motion
 from .modes import modes
 from .results import Interrupted, open_results, simulate, solve_static
 from .storage import OutputError
+from .sweep import Sweep, sweep
 from .viewer import write_html as view
 
 try:
@@ -33,6 +34,7 @@ __all__ = [
     "ModelError",
     "OutputError",
     "SolverError",
+    "Sweep",
     "__version__",
     "animate",
     "drive",
@@ -44,6 +46,7 @@ __all__ = [
     "schema",
     "simulate",
     "solve_static",
+    "sweep",
     "view",
 ]
 

@@ -247,6 +247,63 @@ def _animate(args) -> int:
     return _writing([args.results], make)
 
 
+def _split_values(text: str) -> list[str]:
+    """`v1,v2,…` split at the commas outside brackets, braces and parentheses (so that
+    `[0, 0, 1],[0, 1, 0]` and `sin(t),cos(t)` are two values each)."""
+    parts, depth, current = [], 0, ""
+    for ch in text:
+        depth += (ch in "([{") - (ch in ")]}")
+        if ch == "," and depth == 0:
+            parts.append(current)
+            current = ""
+        else:
+            current += ch
+    return [p.strip() for p in parts + [current] if p.strip()]
+
+
+def _sweep(args) -> int:
+    from .overrides import parse_value
+    from .sweep import sweep
+
+    parameters = {}
+    for g in args.grid:
+        path, sep, values = g.partition("=")
+        if not sep or not _split_values(values):
+            raise _core.ModelError(
+                f"--grid `{g}`: write PATH=V1,V2,…, e.g. --grid joints.pin.spring.stiffness=1e3,1e4"
+            )
+        parameters[path.strip()] = [parse_value(v) for v in _split_values(values)]
+    executor = None
+    if args.scheduler:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise _core.ModelError("--scheduler needs Dask's distributed: pip install 'flexdyn[cluster]'") from None
+        executor = Client(args.scheduler)
+    settings = {
+        k: v
+        for k, v in (("t_end", args.t_end), ("scheme", args.scheme), ("output_dt", args.output_dt))
+        if v is not None
+    }
+    result = sweep(
+        _model(args),
+        parameters,
+        args.output,
+        executor=executor,
+        workers=args.workers,
+        summary=args.summary or (),
+        progress=not args.quiet and sys.stderr.isatty(),
+        **settings,
+    )
+    failed = result.failed()
+    print(
+        f"{len(result.cases) - len(failed)} of {len(result.cases)} cases done; manifest {result.folder / 'manifest.json'}"
+    )
+    for c in failed:
+        print(f"case {c['index']} {c['parameters']} failed: {c['error']}", file=sys.stderr)
+    return EXIT_RUN if failed else 0
+
+
 def _with(args, **fields):
     for k, v in fields.items():
         setattr(args, k, v)
@@ -381,6 +438,34 @@ def main(argv=None) -> int:
     )
     an.add_argument("--view", default="25,-60", help="camera elevation,azimuth in degrees (default 25,-60)")
     an.set_defaults(func=_animate)
+    sw = sub.add_parser("sweep", help="run a model for every combination of parameter values")
+    _model_argument(sw)
+    sw.add_argument(
+        "--grid",
+        action="append",
+        required=True,
+        metavar="PATH=V1,V2,…",
+        help="a parameter and its values (repeatable: every combination)",
+    )
+    sw.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        metavar="FOLDER",
+        help="folder for the cases' results and manifest.json",
+    )
+    sw.add_argument("--workers", type=int, help="local processes (default: the CPU count)")
+    sw.add_argument(
+        "--scheduler", metavar="ADDRESS", help="run on a Dask distributed cluster (e.g. tcp://host:8786)"
+    )
+    sw.add_argument(
+        "--summary", nargs="+", metavar="CHANNEL", help="channels summarized in the manifest (max |x|, final)"
+    )
+    sw.add_argument("--t-end", type=float)
+    sw.add_argument("--scheme", choices=["ep", "ed"])
+    sw.add_argument("--output-dt", type=float)
+    sw.add_argument("-q", "--quiet", action="store_true")
+    sw.set_defaults(func=_sweep)
     ex = sub.add_parser("export", help="export a results file's motion (VTU/PVD time series for ParaView)")
     ex.add_argument("results", help="results file (.nc) with field output")
     ex.add_argument("--vtk", required=True, metavar="FOLDER", help="folder for the .vtu files and the .pvd")
