@@ -260,6 +260,39 @@ impl PySimulation {
         ))
     }
 
+    /// Static analysis only: as `linearize`, about the current state of `run`, a simulation
+    /// of the same model (e.g. a dynamic one stopped at a time of interest): its positions,
+    /// coordinates, element history and constraint forces, at its time.
+    #[allow(clippy::type_complexity)]
+    fn linearize_about<'py>(
+        &mut self,
+        py: Python<'py>,
+        run: PyRef<'py, PySimulation>,
+    ) -> PyResult<(
+        usize,
+        SparseArrays<'py>,
+        SparseArrays<'py>,
+        SparseArrays<'py>,
+        Vec<String>,
+    )> {
+        if !self.sim.is_static() {
+            return Err(ModelError::new_err(
+                "linearize_about: the model's simulation.analysis must be \"static\"",
+            ));
+        }
+        let state = run.sim.state.clone();
+        let sim = &mut self.sim;
+        let lin = guarded("linearizing", || Ok(sim.linearize_about(&state)))?
+            .map_err(ModelError::new_err)?;
+        Ok((
+            lin.n,
+            sparse_arrays(py, lin.stiffness),
+            sparse_arrays(py, lin.mass),
+            sparse_arrays(py, lin.damping),
+            lin.labels,
+        ))
+    }
+
     /// Whether this is a static analysis (load steps instead of time).
     #[getter]
     fn is_static(&self) -> bool {

@@ -58,6 +58,7 @@ def test_a_grid_gathers_with_its_parameters_as_dimensions(local):
 
 def test_a_dask_cluster_gives_the_same_results(local, tmp_path):
     import distributed  # a test dependency: the sweep must run on a real Dask cluster
+
     with (
         distributed.LocalCluster(
             n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None

@@ -45,6 +45,8 @@ class Simulation:
         """Solves the load steps to load factor 1 (static analysis)."""
     def linearize(self) -> tuple[int, _Sparse, _Sparse, _Sparse, list[str]]:
         """`(n, (k_indptr, k_indices, k_data), (m_rows, m_cols, m_data), (c_rows, c_cols, c_data), labels)`."""
+    def linearize_about(self, run: Simulation) -> tuple[int, _Sparse, _Sparse, _Sparse, list[str]]:
+        """As `linearize`, about the current state of `run` (a simulation of the same model)."""
     def flush(self) -> None:
         """Completes samples still waiting for the next step."""
     def take_samples(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:

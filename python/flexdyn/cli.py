@@ -25,6 +25,29 @@ def _model(args):
     return load(args.model).with_(dict(parse_assignment(a) for a in args.set))
 
 
+def _modes_along(args) -> int:
+    """`flexdyn modes --along N`: frequencies at N instants of the model's run."""
+    from .trajectory_modes import frequencies_along
+
+    ds = frequencies_along(
+        _model(args), samples=args.along, count=args.count, method=args.method, out=args.output
+    )
+    etas = [n for n in ds.data_vars if n.startswith("eta.")]
+    heads = [f"{n:>14}" for n in etas] + [f"{'f' + str(k) + ' [Hz]':>14}" for k in ds["mode"].values]
+    print(f"{'t [s]':>10}" + "".join(heads))
+    for i, t in enumerate(ds["time"].values):
+        row = [ds[n].values[i] for n in etas] + list(ds["frequency"].values[i])
+        print(f"{t:>10.4g}" + "".join(f"{v:>14.6g}" for v in row))
+    if args.plot:
+        from .plots import plot_frequencies
+
+        against = "eta" if len(etas) == 1 else "time"
+        print(f"wrote {plot_frequencies(ds, args.plot, against=against)}")
+    if args.output:
+        print(f"wrote {args.output}")
+    return 0
+
+
 def _loaded(args):
     """The model as a `Model`, with its overrides."""
     from .builder import load
@@ -92,6 +115,8 @@ def _channel_names(ds) -> list[str]:
 
 
 def _modes(args) -> int:
+    if args.along:
+        return _modes_along(args)
     from .modes import modes
 
     md = modes(_model(args), args.count, preload=not args.no_preload, method=args.method)
@@ -278,7 +303,9 @@ def _sweep(args) -> int:
         try:
             from distributed import Client
         except ImportError:
-            raise _core.ModelError("--scheduler needs Dask's distributed: pip install 'flexdyn[cluster]'") from None
+            raise _core.ModelError(
+                "--scheduler needs Dask's distributed: pip install 'flexdyn[cluster]'"
+            ) from None
         executor = Client(args.scheduler)
     settings = {
         k: v
@@ -380,8 +407,17 @@ def main(argv=None) -> int:
         "auto (dense up to 1500 unknowns; the default)",
     )
     md.add_argument(
-        "--plot", metavar="FIGURE", help="also draw the mode shapes (up to 9) to this .png/.svg/.pdf"
+        "--plot",
+        metavar="FIGURE",
+        help="also draw the mode shapes (up to 9; with --along, the frequencies) to this .png/.svg/.pdf",
     )
+    md.add_argument(
+        "--along",
+        type=int,
+        metavar="N",
+        help="frequencies at N instants along the model's run (linearized about each state reached)",
+    )
+    md.add_argument("-o", "--output", help="with --along: write the frequencies as channels to this .nc")
     md.set_defaults(func=_modes)
     for name in ("check", "validate"):
         v = sub.add_parser(name, help="check a model file (everything a run checks before its first step)")

@@ -71,28 +71,10 @@ def modes(
                 "(flexdyn modes --no-preload)"
             ) from None
     geometry = _equilibrium_geometry(sim)
-    n, (kp, ki, kv), (mr, mc, mv), (cr, cc, cv), labels = sim.linearize()
-    k = sp.csc_matrix((kv, ki, kp), shape=(n, n))
-    m = sp.csc_matrix((mv, (mr, mc)), shape=(n, n))
-    c = sp.csc_matrix((cv, (cr, cc)), shape=(n, n))
-    rows = np.array([lab.startswith("row:") for lab in labels], dtype=bool)
-    q = ~rows
-    dense = method == "dense" or (method == "auto" and n <= DENSE_LIMIT)
-    if dense:
-        omega2, shapes_q = _dense_modes(k.toarray(), m.toarray(), rows, count)
-    else:
-        omega2, shapes_q = _sparse_modes(k, m, rows, count)
+    omega2, omega, roots, shape, node_dofs_labels = _solve(sim.linearize(), count, method)
     count = omega2.size
-    omega = np.sqrt(np.clip(omega2, 0.0, None))
-    if c.nnz:
-        roots = (_dense_damped if dense else _sparse_damped)(k, m, c, rows, omega, shapes_q)
-    else:
-        roots = omega.astype(complex) * 1j
     natural = np.abs(roots)
     zeta = np.where(natural > 0, -roots.real / np.where(natural > 0, natural, 1.0), 0.0)
-    q_labels = [lab for lab, keep in zip(labels, q) if keep]
-    node_dofs = [i for i, lab in enumerate(q_labels) if not lab.startswith("coord:")]
-    shape = shapes_q[node_dofs, :].T
     node_names, x0, topology = geometry
     return xr.Dataset(
         {
@@ -108,12 +90,35 @@ def modes(
         },
         coords={
             "mode": np.arange(1, count + 1),
-            "dof": [q_labels[i] for i in node_dofs],
+            "dof": node_dofs_labels,
             "node": node_names,
             "xyz": ["x", "y", "z"],
         },
         attrs={"model": data.get("name") or "", "flexdyn_topology": topology},
     )
+
+
+def _solve(linearization, count: int, method: str):
+    """The `count` lowest modes of a linearization (`Simulation.linearize`): ω², ω, the damped
+    roots, the shapes over the nodes' unknowns and their labels."""
+    n, (kp, ki, kv), (mr, mc, mv), (cr, cc, cv), labels = linearization
+    k = sp.csc_matrix((kv, ki, kp), shape=(n, n))
+    m = sp.csc_matrix((mv, (mr, mc)), shape=(n, n))
+    c = sp.csc_matrix((cv, (cr, cc)), shape=(n, n))
+    rows = np.array([lab.startswith("row:") for lab in labels], dtype=bool)
+    dense = method == "dense" or (method == "auto" and n <= DENSE_LIMIT)
+    if dense:
+        omega2, shapes_q = _dense_modes(k.toarray(), m.toarray(), rows, count)
+    else:
+        omega2, shapes_q = _sparse_modes(k, m, rows, count)
+    omega = np.sqrt(np.clip(omega2, 0.0, None))
+    if c.nnz:
+        roots = (_dense_damped if dense else _sparse_damped)(k, m, c, rows, omega, shapes_q)
+    else:
+        roots = omega.astype(complex) * 1j
+    q_labels = [lab for lab, keep in zip(labels, ~rows) if keep]
+    node_dofs = [i for i, lab in enumerate(q_labels) if not lab.startswith("coord:")]
+    return omega2, omega, roots, shapes_q[node_dofs, :].T, [q_labels[i] for i in node_dofs]
 
 
 def _equilibrium_geometry(sim) -> tuple[list[str], np.ndarray, str]:

@@ -215,3 +215,33 @@ def _equal_axes(ax, pts):
     ax.set(xlim=(centre[0] - half, centre[0] + half), ylim=(centre[1] - half, centre[1] + half))
     ax.set(zlim=(centre[2] - half, centre[2] + half), xlabel="x", ylabel="y", zlabel="z")
     ax.set_box_aspect((1, 1, 1))
+
+
+def plot_frequencies(ds: xr.Dataset, out: str | Path, against: str = "time") -> Path:
+    """Writes the natural frequencies along a trajectory (`frequencies_along`) against time or
+    against a sliding joint's η (`against="eta.<joint>"`, or `"eta"` for the only one)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    etas = [n for n in ds.data_vars if n.startswith("eta.")]
+    if against == "eta":
+        if len(etas) != 1:
+            raise ValueError(f"against: name the sliding joint, one of {', '.join(etas) or 'none'}")
+        against = etas[0]
+    if against != "time" and against not in ds:
+        raise ValueError(f"against: `{against}` is neither time nor one of {', '.join(etas) or 'no η'}")
+    x = ds[against].values
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for k in ds["mode"].values:
+        ax.plot(x, ds["frequency"].sel(mode=k).values, "o-", ms=3, lw=1.2, label=f"mode {k}")
+    ax.set_xlabel("time [s]" if against == "time" else f"{against} [1]")
+    ax.set_ylabel("frequency [Hz]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize="small")
+    fig.tight_layout()
+    out = Path(out)
+    fig.savefig(out)
+    plt.close(fig)
+    return out

@@ -277,6 +277,29 @@ impl Simulation {
         }
     }
 
+    /// A static analysis's linearization about `state`, a state of a run of the same model
+    /// (e.g. a dynamic one, sampled along its trajectory): its positions, joint coordinates,
+    /// element history and constraint forces replace this analysis's, at its time (drives
+    /// there), velocities dropped. The tangent is then the one at that configuration under the
+    /// forces acting there — frozen-time natural frequencies along a motion. `Err` names
+    /// what does not match when the state is not of this model.
+    pub fn linearize_about(&mut self, state: &State) -> Result<Linearization, String> {
+        let own = &self.state;
+        let sizes = |s: &State| (s.nodes.len(), s.coords.len(), s.lambda.len(), s.history.len());
+        if sizes(own) != sizes(state) {
+            return Err(format!(
+                "the state is not of this model: (nodes, coordinates, constraint rows, history) \
+                 {:?} against {:?}",
+                sizes(state),
+                sizes(own)
+            ));
+        }
+        self.state = state.clone();
+        self.state.at_rest();
+        self.load_factor = 1.0;
+        Ok(self.linearize())
+    }
+
     /// The viscous damping matrix of the linearized equations, as triplets over the EP
     /// layout: the beams' structural damping and the joints' dampers (N·s/m, N·m·s/rad).
     fn damping_matrix(&self) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
