@@ -136,3 +136,17 @@ def test_sweep_command_values_with_commas_inside(tmp_path):
     assert done.returncode == 0, done.stderr
     params = [c["parameters"]["gravity"] for c in fd.Sweep(tmp_path).cases]
     assert params == [[0, 0, 0], [0, 0, -9.81]]
+
+
+@pytest.mark.parametrize("script", ["sweep_four_bar.py", "sliding_mass_frequencies.py"])
+def test_the_study_examples_run(script, tmp_path):
+    """The README's study figures come from these scripts."""
+    args = [sys.executable, str(ROOT / "examples" / "studies" / script), "--figure", str(tmp_path / "f.png")]
+    if script.startswith("sweep"):
+        args += ["--out", str(tmp_path / "sweep")]
+    done = subprocess.run(args, check=False, capture_output=True, text=True, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "f.png").is_file()
+    if script.startswith("sliding"):
+        error = float(done.stdout.split("closed form ")[1].split(";")[0])
+        assert error < 1e-3  # the README quotes 3.4e-4
