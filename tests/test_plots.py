@@ -6,6 +6,7 @@ import sys
 
 import numpy as np
 import pytest
+import xarray as xr
 from PIL import Image
 
 import flexdyn as fd
@@ -135,3 +136,10 @@ def test_mode_shapes_are_drawn(tmp_path):
         text=True,
     )
     assert done.returncode == 0 and (tmp_path / "m.png").is_file(), done.stderr
+    saved = subprocess.run(
+        [sys.executable, "-m", "flexdyn", "modes", "examples/swept_blade_statics.yaml", "-n", "2", "-o", str(tmp_path / "m.nc")],
+        check=False, capture_output=True, text=True,
+    )  # fmt: skip
+    assert saved.returncode == 0, saved.stderr
+    with xr.open_dataset(tmp_path / "m.nc") as written:
+        assert written.sizes["mode"] == 2 and written["frequency"].attrs["units"] == "Hz"

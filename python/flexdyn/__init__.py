@@ -20,6 +20,7 @@ from .modes import modes
 from .results import Interrupted, open_results, simulate, solve_static
 from .storage import OutputError
 from .sweep import Sweep, sweep
+from .trajectory_modes import frequencies_along
 from .viewer import write_html as view
 
 try:
@@ -39,6 +40,7 @@ __all__ = [
     "animate",
     "drive",
     "export_vtk",
+    "frequencies_along",
     "load",
     "modes",
     "motion",

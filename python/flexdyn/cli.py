@@ -127,6 +127,9 @@ def _modes(args) -> int:
         from .plots import plot_modes
 
         print(f"wrote {plot_modes(md, args.plot, count=min(args.count, 9))}")
+    if args.output:
+        md.to_netcdf(args.output)
+        print(f"wrote {args.output}")
     return 0
 
 
@@ -417,7 +420,9 @@ def main(argv=None) -> int:
         metavar="N",
         help="frequencies at N instants along the model's run (linearized about each state reached)",
     )
-    md.add_argument("-o", "--output", help="with --along: write the frequencies as channels to this .nc")
+    md.add_argument(
+        "-o", "--output", help="write the modes (with --along: the frequencies as channels) to this .nc"
+    )
     md.set_defaults(func=_modes)
     for name in ("check", "validate"):
         v = sub.add_parser(name, help="check a model file (everything a run checks before its first step)")
