@@ -88,3 +88,18 @@ def test_animations_have_the_frames_asked_for(results, tmp_path, suffix):
 def test_animate_refuses_an_unknown_format(results, tmp_path):
     with pytest.raises(ValueError, match=r"\.mp4 or \.gif"):
         animate(results, tmp_path / "motion.avi")
+
+
+def test_a_model_without_beams_animates_and_refuses_a_colour(tmp_path):
+    """A regression: matplotlib cannot add an empty 3-D line collection (a rigid four-bar has
+    no beams), which stopped `flexdyn animate` with a numpy error."""
+    from pathlib import Path
+
+    four_bar = Path(__file__).resolve().parent.parent / "examples" / "four_bar.yaml"
+    res = fd.simulate(four_bar, t_end=0.1, output_dt=0.01)
+    out = animate(res, tmp_path / "four_bar.gif", max_frames=5)
+    assert out.is_file()
+    with pytest.raises(ValueError, match="no beams to colour"):
+        animate(res, tmp_path / "x.gif", color="M2")
+    with pytest.raises(ValueError, match="no beams to colour"):
+        fd.view(res, tmp_path / "x.html", color="M2")
