@@ -5,6 +5,7 @@ of a cantilever carrying a point mass at s."""
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -69,7 +70,7 @@ def test_written_as_channels_and_from_the_command_line(tmp_path):
 
 def test_a_state_of_another_model_is_refused():
     static = fd.results.static_model_data(sliding_mass())
-    other = fd.load(fd.__file__.rsplit("/python/", 1)[0] + "/examples/pendulum.yaml")
+    other = fd.load(Path(__file__).resolve().parent.parent / "examples" / "pendulum.yaml")
     run = _core.Simulation(json.dumps(other.to_dict()))
     with pytest.raises(fd.ModelError, match="not of this model"):
         _core.Simulation(json.dumps(static)).linearize_about(run)
