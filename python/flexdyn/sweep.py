@@ -130,7 +130,8 @@ def sweep(
     grid (path → values: every combination) or a list of cases (each a dict of path → value).
     `executor`: any concurrent.futures executor (a Dask client is turned into its executor);
     default a process pool of `workers` (default: the CPU count) processes, one solver
-    thread each. `summary`: channels summarized in the manifest. `settings` are `simulate`'s
+    thread each, started fresh (spawn: in a script, call this under `if __name__ ==
+    "__main__":`). `summary`: channels summarized in the manifest. `settings` are `simulate`'s
     `simulation` settings (t_end, scheme, output_dt, …) for every case, under the cases' own
     overrides. Returns the `Sweep`."""
     from .builder import Model
