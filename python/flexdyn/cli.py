@@ -1,6 +1,7 @@
-"""The `flexdyn` command: run a model (dynamic or static), plot and compare results, describe or
-check a model, expand its patterns, list its natural frequencies, or print the model-file
-schema."""
+"""The `flexdyn` command: run a model (dynamic or static) or a sweep of it, see the motion (3-D
+view, ParaView export, video), plot and compare results, describe or check a model, expand its
+patterns, list its natural frequencies (about the equilibrium or along a run), or print the
+model-file schema. `--set PATH=VALUE` changes a model's value without editing the file."""
 
 from __future__ import annotations
 
@@ -398,7 +399,9 @@ def main(argv=None) -> int:
     )
     r.add_argument("-q", "--quiet", action="store_true")
     r.set_defaults(func=_run)
-    md = sub.add_parser("modes", help="natural frequencies about the static equilibrium")
+    md = sub.add_parser(
+        "modes", help="natural frequencies about the static equilibrium, or along a run (--along)"
+    )
     _model_argument(md)
     md.add_argument("-n", "--count", type=int, default=10, help="number of modes (default 10)")
     md.add_argument("--no-preload", action="store_true", help="linearize about the initial configuration")
