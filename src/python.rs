@@ -70,6 +70,28 @@ type SparseArrays<'py> = (
     Bound<'py, PyArray1<f64>>,
 );
 
+/// A linearization for Python: `(n, K, M, C, labels)` (see `PySimulation::linearize`).
+type LinearizationArrays<'py> = (
+    usize,
+    SparseArrays<'py>,
+    SparseArrays<'py>,
+    SparseArrays<'py>,
+    Vec<String>,
+);
+
+fn linearization_arrays(
+    py: Python<'_>,
+    lin: crate::simulation::Linearization,
+) -> LinearizationArrays<'_> {
+    (
+        lin.n,
+        sparse_arrays(py, lin.stiffness),
+        sparse_arrays(py, lin.mass),
+        sparse_arrays(py, lin.damping),
+        lin.labels,
+    )
+}
+
 fn sparse_arrays(
     py: Python<'_>,
     (a, b, v): (Vec<usize>, Vec<usize>, Vec<f64>),
@@ -233,17 +255,7 @@ impl PySimulation {
     /// `Simulation::linearize`): `(n, (k_indptr, k_indices, k_data), (m_rows, m_cols,
     /// m_data), (c_rows, c_cols, c_data), labels)` — K in compressed sparse columns, the mass
     /// M and viscous damping C as triplets.
-    #[allow(clippy::type_complexity)]
-    fn linearize<'py>(
-        &mut self,
-        py: Python<'py>,
-    ) -> PyResult<(
-        usize,
-        SparseArrays<'py>,
-        SparseArrays<'py>,
-        SparseArrays<'py>,
-        Vec<String>,
-    )> {
+    fn linearize<'py>(&mut self, py: Python<'py>) -> PyResult<LinearizationArrays<'py>> {
         if !self.sim.is_static() {
             return Err(ModelError::new_err(
                 "linearize: the model's simulation.analysis must be \"static\"",
@@ -251,30 +263,17 @@ impl PySimulation {
         }
         let sim = &mut self.sim;
         let lin = guarded("linearizing", || Ok(sim.linearize()))?;
-        Ok((
-            lin.n,
-            sparse_arrays(py, lin.stiffness),
-            sparse_arrays(py, lin.mass),
-            sparse_arrays(py, lin.damping),
-            lin.labels,
-        ))
+        Ok(linearization_arrays(py, lin))
     }
 
     /// Static analysis only: as `linearize`, about the current state of `run`, a simulation
     /// of the same model (e.g. a dynamic one stopped at a time of interest): its positions,
     /// coordinates, element history and constraint forces, at its time.
-    #[allow(clippy::type_complexity)]
     fn linearize_about<'py>(
         &mut self,
         py: Python<'py>,
         run: PyRef<'py, PySimulation>,
-    ) -> PyResult<(
-        usize,
-        SparseArrays<'py>,
-        SparseArrays<'py>,
-        SparseArrays<'py>,
-        Vec<String>,
-    )> {
+    ) -> PyResult<LinearizationArrays<'py>> {
         if !self.sim.is_static() {
             return Err(ModelError::new_err(
                 "linearize_about: the model's simulation.analysis must be \"static\"",
@@ -284,13 +283,7 @@ impl PySimulation {
         let sim = &mut self.sim;
         let lin = guarded("linearizing", || Ok(sim.linearize_about(&state)))?
             .map_err(ModelError::new_err)?;
-        Ok((
-            lin.n,
-            sparse_arrays(py, lin.stiffness),
-            sparse_arrays(py, lin.mass),
-            sparse_arrays(py, lin.damping),
-            lin.labels,
-        ))
+        Ok(linearization_arrays(py, lin))
     }
 
     /// Whether this is a static analysis (load steps instead of time).

@@ -285,7 +285,14 @@ impl Simulation {
     /// what does not match when the state is not of this model.
     pub fn linearize_about(&mut self, state: &State) -> Result<Linearization, String> {
         let own = &self.state;
-        let sizes = |s: &State| (s.nodes.len(), s.coords.len(), s.lambda.len(), s.history.len());
+        let sizes = |s: &State| {
+            (
+                s.nodes.len(),
+                s.coords.len(),
+                s.lambda.len(),
+                s.history.len(),
+            )
+        };
         if sizes(own) != sizes(state) {
             return Err(format!(
                 "the state is not of this model: (nodes, coordinates, constraint rows, history) \
