@@ -286,6 +286,18 @@ impl PySimulation {
         Ok(linearization_arrays(py, lin))
     }
 
+    /// Static analysis only: the gyroscopic (Coriolis) matrix `G` about the current state, in
+    /// the frame turning with the initial spins (see `Simulation::gyroscopic_matrix`), as
+    /// `(rows, cols, values)` over the unknowns of `linearize`; empty without spins.
+    fn gyroscopic<'py>(&self, py: Python<'py>) -> PyResult<SparseArrays<'py>> {
+        if !self.sim.is_static() {
+            return Err(ModelError::new_err(
+                "gyroscopic: the model's simulation.analysis must be \"static\"",
+            ));
+        }
+        Ok(sparse_arrays(py, self.sim.gyroscopic_matrix()))
+    }
+
     /// Whether this is a static analysis (load steps instead of time).
     #[getter]
     fn is_static(&self) -> bool {

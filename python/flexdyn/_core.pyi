@@ -47,6 +47,8 @@ class Simulation:
         """`(n, (k_indptr, k_indices, k_data), (m_rows, m_cols, m_data), (c_rows, c_cols, c_data), labels)`."""
     def linearize_about(self, run: Simulation) -> tuple[int, _Sparse, _Sparse, _Sparse, list[str]]:
         """As `linearize`, about the current state of `run` (a simulation of the same model)."""
+    def gyroscopic(self) -> _Sparse:
+        """The gyroscopic matrix `(rows, cols, values)` about the current state (spinning frame)."""
     def flush(self) -> None:
         """Completes samples still waiting for the next step."""
     def take_samples(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:

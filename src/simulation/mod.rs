@@ -307,6 +307,32 @@ impl Simulation {
         Ok(self.linearize())
     }
 
+    /// The gyroscopic (Coriolis) matrix `G` of the linearized equations `M q̈ + G q̇ + K q = 0`
+    /// in the frame turning with the nodes' initial spins, as triplets over the EP layout:
+    /// `2 m Ω̃` on a spinning node's translations (inertial components) and
+    /// `J W̃ + W̃ J − (J W)~`, `W = Rᵀ Ω`, on its material rotation increments — the θ̇ terms of
+    /// Euler's equations for `w = W + W̃ θ + θ̇`, whose θ terms the static tangent already
+    /// holds (with the centrifugal softening `m Ω̃ Ω̃`). Skew-symmetric; empty without spins.
+    pub fn gyroscopic_matrix(&self) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
+        let sys = &self.system;
+        let mut out = (Vec::new(), Vec::new(), Vec::new());
+        for inertia in &sys.inertias {
+            let Some(spin) = &inertia.spin else { continue };
+            let d = sys.layout.node_delta(inertia.node);
+            let translation = spin.omega.tilde().scale_f(2.0 * inertia.mass);
+            let w = self.state.nodes[inertia.node].r.tmul_v(&spin.omega);
+            let j = inertia.inertia;
+            let rotation = j.mul_m(&w.tilde()) + w.tilde().mul_m(&j) - j.mul_v(&w).tilde();
+            for a in 0..3 {
+                for b in 0..3 {
+                    push_entry(&mut out, d + a, d + b, translation.0[a][b]);
+                    push_entry(&mut out, d + 3 + a, d + 3 + b, rotation.0[a][b]);
+                }
+            }
+        }
+        out
+    }
+
     /// The viscous damping matrix of the linearized equations, as triplets over the EP
     /// layout: the beams' structural damping and the joints' dampers (N·s/m, N·m·s/rad).
     fn damping_matrix(&self) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
