@@ -138,7 +138,7 @@ def test_sweep_command_values_with_commas_inside(tmp_path):
     assert params == [[0, 0, 0], [0, 0, -9.81]]
 
 
-@pytest.mark.parametrize("script", ["sweep_four_bar.py", "sliding_mass_frequencies.py"])
+@pytest.mark.parametrize("script", ["sweep_four_bar.py", "sliding_mass_frequencies.py", "campbell_rotor.py"])
 def test_the_study_examples_run(script, tmp_path):
     """The README's study figures come from these scripts."""
     args = [sys.executable, str(ROOT / "examples" / "studies" / script), "--figure", str(tmp_path / "f.png")]

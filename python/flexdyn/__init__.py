@@ -14,6 +14,7 @@ from ._core import __version__ as _core_version
 from ._core import schema as _schema
 from .animate import animate
 from .builder import Model, drive, load
+from .campbell import campbell
 from .export import export_vtk
 from .fields import motion
 from .modes import modes
@@ -38,6 +39,7 @@ __all__ = [
     "Sweep",
     "__version__",
     "animate",
+    "campbell",
     "drive",
     "export_vtk",
     "frequencies_along",

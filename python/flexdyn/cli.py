@@ -49,6 +49,32 @@ def _modes_along(args) -> int:
     return 0
 
 
+def _campbell(args) -> int:
+    """`flexdyn campbell model.yaml --speed [PATH=]START:STOP:COUNT`."""
+    import numpy as np
+
+    from .campbell import campbell, plot_campbell
+
+    path, _, span = args.speed.rpartition("=")
+    try:
+        start, stop, count = span.split(":")
+        speeds = np.linspace(float(start), float(stop), int(count))
+    except ValueError:
+        raise _core.ModelError(
+            f"--speed `{args.speed}`: write [PATH=]START:STOP:COUNT, e.g. 0:40:21"
+        ) from None
+    ds = campbell(_model(args), speeds, speed=path or None, count=args.count)
+    print(f"{'speed [rad/s]':>14}" + "".join(f"{'f' + str(k) + ' [Hz]':>12}" for k in ds["mode"].values))
+    for i, w in enumerate(ds["speed"].values):
+        print(f"{w:>14.6g}" + "".join(f"{f:>12.6g}" for f in ds["frequency"].values[i]))
+    if args.plot:
+        print(f"wrote {plot_campbell(ds, args.plot)}")
+    if args.output:
+        ds.to_netcdf(args.output)
+        print(f"wrote {args.output}")
+    return 0
+
+
 def _loaded(args):
     """The model as a `Model`, with its overrides."""
     from .builder import load
@@ -482,6 +508,18 @@ def main(argv=None) -> int:
     )
     an.add_argument("--view", default="25,-60", help="camera elevation,azimuth in degrees (default 25,-60)")
     an.set_defaults(func=_animate)
+    cb = sub.add_parser("campbell", help="frequencies over a range of spin rates, with Coriolis terms")
+    _model_argument(cb)
+    cb.add_argument(
+        "--speed",
+        required=True,
+        metavar="[PATH=]START:STOP:COUNT",
+        help="spin rates, rad/s, of an initial spin (default path: the only one's rate, initial_spins.0.rate)",
+    )
+    cb.add_argument("-n", "--count", type=int, default=6, help="number of modes (default 6)")
+    cb.add_argument("--plot", metavar="FIGURE", help="draw the Campbell diagram to this .png/.svg/.pdf")
+    cb.add_argument("-o", "--output", help="write the frequencies to this .nc")
+    cb.set_defaults(func=_campbell)
     sw = sub.add_parser("sweep", help="run a model for every combination of parameter values")
     _model_argument(sw)
     sw.add_argument(
