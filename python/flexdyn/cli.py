@@ -67,12 +67,7 @@ def _campbell(args) -> int:
     print(f"{'speed [rad/s]':>14}" + "".join(f"{'f' + str(k) + ' [Hz]':>12}" for k in ds["mode"].values))
     for i, w in enumerate(ds["speed"].values):
         print(f"{w:>14.6g}" + "".join(f"{f:>12.6g}" for f in ds["frequency"].values[i]))
-    if args.plot:
-        print(f"wrote {plot_campbell(ds, args.plot)}")
-    if args.output:
-        ds.to_netcdf(args.output)
-        print(f"wrote {args.output}")
-    return 0
+    return _saved(ds, args, plot_campbell)
 
 
 def _loaded(args):
@@ -150,12 +145,17 @@ def _modes(args) -> int:
     print(f"{'mode':>4}  {'omega [rad/s]':>14}  {'f [Hz]':>12}")
     for k, w, f in zip(md.mode.values, md.omega.values, md.frequency.values):
         print(f"{k:>4}  {w:>14.6g}  {f:>12.6g}")
-    if args.plot:
-        from .plots import plot_modes
+    from .plots import plot_modes
 
-        print(f"wrote {plot_modes(md, args.plot, count=min(args.count, 9))}")
+    return _saved(md, args, lambda ds, path: plot_modes(ds, path, count=min(args.count, 9)))
+
+
+def _saved(ds, args, draw) -> int:
+    """Draws `ds` to `--plot` with `draw(ds, path)` and writes it to `-o` (NetCDF), if asked."""
+    if args.plot:
+        print(f"wrote {draw(ds, args.plot)}")
     if args.output:
-        md.to_netcdf(args.output)
+        ds.to_netcdf(args.output)
         print(f"wrote {args.output}")
     return 0
 
