@@ -83,6 +83,16 @@ def test_campbell_command(tmp_path):
     assert bad.returncode == 2 and "START:STOP:COUNT" in bad.stderr
 
 
+def test_the_speed_can_name_the_rotor_s_joint():
+    """`--speed shaft=…` varies the initial spin about the revolute `shaft`'s axis."""
+    by_joint = fd.campbell(spinning_blade(False), [0.0, OMEGA], speed="shaft", count=2)
+    by_path = fd.campbell(spinning_blade(False), [0.0, OMEGA], speed="initial_spins.0.rate", count=2)
+    np.testing.assert_array_equal(by_joint["omega"].values, by_path["omega"].values)
+    assert by_joint["speed"].attrs["path"] == "initial_spins.0.rate"
+    with pytest.raises(fd.ModelError, match="neither an override path nor a joint"):
+        fd.campbell(spinning_blade(False), [0.0], speed="shaf")
+
+
 def test_a_model_without_a_spin_to_vary_is_refused():
     m = spinning_blade(False)
     m.data["initial_spins"] = []

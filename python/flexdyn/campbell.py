@@ -26,13 +26,14 @@ from .results import model_data, static_model_data
 
 def campbell(model, speeds, *, speed: str | None = None, count: int = 6) -> xr.Dataset:
     """Frequencies (Hz, turning frame) of the `count` lowest modes of `model` at each spin rate
-    of `speeds` (rad/s), set through the override path `speed` (default: the rate of the
-    model's only initial spin, `initial_spins.0.rate`). Returns a Dataset over `speed`
-    (rad/s) and `mode` with `frequency` and `omega`, modes tracked across the rates."""
+    of `speeds` (rad/s), set through `speed`: an override path (`initial_spins.1.rate`), a
+    joint's name (the rotor's revolute: the initial spin about its axis), or by default the
+    model's only initial spin. Returns a Dataset over `speed` (rad/s) and `mode` with
+    `frequency` and `omega`, modes tracked across the rates."""
     from .builder import Model
 
     data = model_data(model)
-    speed = speed or _default_speed(data)
+    speed = _spin_path(data, speed)
     speeds = np.asarray(speeds, dtype=float)
     if speeds.ndim != 1 or speeds.size == 0:
         raise _core.ModelError("speeds: give one or more spin rates, rad/s")
@@ -59,14 +60,43 @@ def campbell(model, speeds, *, speed: str | None = None, count: int = 6) -> xr.D
     )
 
 
-def _default_speed(data: dict) -> str:
+def _spin_path(data: dict, speed: str | None) -> str:
+    """The override path of the spin rate to vary: given, the initial spin about a named
+    joint's axis, or the model's only initial spin."""
     spins = data.get("initial_spins", [])
+    if speed and "." in speed:
+        return speed
+    if speed:
+        return f"initial_spins.{_spin_about_joint(data, speed, spins)}.rate"
     if len(spins) != 1:
         raise _core.ModelError(
             f"campbell: the model has {len(spins)} initial spins; name the rate to vary, e.g. "
-            "--speed initial_spins.0.rate=0:40:21"
+            "--speed initial_spins.0.rate=0:40:21, or the rotor's joint, --speed shaft=0:40:21"
         )
     return "initial_spins.0.rate"
+
+
+def _spin_about_joint(data: dict, name: str, spins: list) -> int:
+    """The index of the initial spin about joint `name`'s axis (inertial-frame joints)."""
+    joint = next((j for j in data.get("joints", []) if j.get("name") == name), None)
+    if joint is None or "axis" not in joint or joint.get("frame", "inertial") != "inertial":
+        raise _core.ModelError(
+            f"campbell: --speed `{name}` is neither an override path nor a joint with an axis in "
+            "the inertial frame; give the path of the spin rate, e.g. initial_spins.0.rate"
+        )
+    axis = np.asarray(joint["axis"], dtype=float)
+    matches = [
+        k
+        for k, s in enumerate(spins)
+        if abs(np.dot(axis, s["axis"])) >= (1 - 1e-9) * np.linalg.norm(axis) * np.linalg.norm(s["axis"])
+    ]
+    if len(matches) != 1:
+        raise _core.ModelError(
+            f"campbell: joint `{name}`'s axis {joint['axis']} has {len(matches)} initial spins about it; "
+            "give the rotor's nodes and beams one (initial_spins: [{axis, rate, items}]), or the path "
+            "of the rate to vary"
+        )
+    return matches[0]
 
 
 def _spinning_modes(model, count: int) -> tuple[np.ndarray, np.ndarray]:

@@ -514,7 +514,8 @@ def main(argv=None) -> int:
         "--speed",
         required=True,
         metavar="[PATH=]START:STOP:COUNT",
-        help="spin rates, rad/s, of an initial spin (default path: the only one's rate, initial_spins.0.rate)",
+        help="spin rates, rad/s: PATH an override path (initial_spins.1.rate) or the rotor's joint (the "
+        "initial spin about its axis); default the model's only initial spin",
     )
     cb.add_argument("-n", "--count", type=int, default=6, help="number of modes (default 6)")
     cb.add_argument("--plot", metavar="FIGURE", help="draw the Campbell diagram to this .png/.svg/.pdf")
