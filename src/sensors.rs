@@ -33,6 +33,9 @@ enum Source {
     /// A sliding joint's drive (drive index, kernel index): force along the beam, generalized
     /// force on η, work.
     SlidingDrive(usize, usize),
+    /// A joint's friction (index in `System::frictions`): force, normal force (step
+    /// quantities), slip, slip rate, stick, dissipation.
+    Friction(usize),
 }
 
 #[derive(Clone, Debug)]
@@ -54,16 +57,20 @@ pub struct Totals {
     pub damper_work: f64,
     pub numerical_dissipation: f64,
     pub per_drive_work: Vec<f64>,
+    /// Work of all frictions (never positive), and of each.
+    pub friction_work: f64,
+    pub per_friction_work: Vec<f64>,
     pub initial_energy: f64,
 }
 
-const ENERGY: [&str; 8] = [
+const ENERGY: [&str; 9] = [
     "kinetic",
     "potential",
     "total",
     "drive_work",
     "external_work",
     "damper_work",
+    "friction_dissipation",
     "numerical_dissipation",
     "balance",
 ];
@@ -97,6 +104,7 @@ impl Channels {
                 (Source::SlidingDrive(..), k) => *k == 2,
                 (Source::BeamSection(..), k) => *k < 12,
                 (Source::BeamEnergy(_), k) => *k == 1,
+                (Source::Friction(_), k) => *k == 5,
                 _ => false,
             })
             .chain(field_loads)
@@ -126,6 +134,14 @@ impl Channels {
                         f_zeta / speed
                     } else {
                         f_zeta * dzeta_deta
+                    }
+                }
+                Source::Friction(f) => {
+                    let step = &report.frictions[*f];
+                    if *k == 0 {
+                        step.force
+                    } else {
+                        step.normal
                     }
                 }
                 _ => unreachable!("only multiplier channels are step channels"),
@@ -218,7 +234,8 @@ impl Channels {
         for (k, comp) in comps.iter().enumerate() {
             let step_quantity = matches!(src, Source::Reaction(_))
                 || (matches!(src, Source::Drive(_)) && k == 0)
-                || (matches!(src, Source::SlidingDrive(..)) && k < 2);
+                || (matches!(src, Source::SlidingDrive(..)) && k < 2)
+                || (matches!(src, Source::Friction(_)) && k < 2);
             if step_quantity {
                 self.step_channels.push(self.names.len());
             }
@@ -282,6 +299,7 @@ impl Channels {
                 joint, coordinate, ..
             } => self.add_drive_force(name, joint, coordinate.as_deref(), model, sys),
             Sensor::Energy { .. } => self.add(name, &ENERGY, &["J"], Source::Energy),
+            Sensor::Friction { joint, .. } => self.add_friction(name, joint, sys),
             Sensor::BeamSection { beam, eta, s, .. } => {
                 self.add_beam_section(name, beam, *eta, *s, sys)
             }
@@ -297,6 +315,26 @@ impl Channels {
                 Source::Momentum,
             ),
         }
+    }
+
+    /// A joint's friction: force, normal force, slip, its rate, stick, dissipation.
+    fn add_friction(&mut self, name: &str, joint: &str, sys: &System) {
+        let f = sys.frictions.iter().position(|f| f.joint == joint);
+        let comps = [
+            "force",
+            "normal",
+            "slip",
+            "slip_rate",
+            "stick",
+            "dissipation",
+        ];
+        let units = ["N", "N", "m", "m/s", "1", "J"];
+        self.add(
+            name,
+            &comps,
+            &units,
+            Source::Friction(f.expect("validated")),
+        )
     }
 
     /// A joint's coordinates and rates; a sliding joint's contact point (η, its rate, arc
@@ -411,7 +449,7 @@ impl Channels {
 
     /// Appends one sample of the state channels; step channels get a NaN placeholder.
     pub fn sample(&self, sys: &System, state: &State, totals: &Totals, out: &mut Vec<f64>) {
-        let mut energy: Option<[f64; 8]> = None;
+        let mut energy: Option<[f64; 9]> = None;
         for (src, k) in &self.sources {
             let v = match src {
                 Source::Position(_)
@@ -422,16 +460,7 @@ impl Channels {
                 | Source::Coordinate(_) => node_channel(src, *k, sys, state),
                 // Step quantities are filled in by `step_values` and interpolation.
                 Source::Reaction(_) => f64::NAN,
-                Source::Contact(j) => {
-                    let sl = sys.joints[*j].as_sliding().expect("a sliding joint");
-                    let z = state.coords[sl.coord];
-                    match *k {
-                        0 => sl.arc.eta(z),
-                        1 => state.coord_rates[sl.coord] * sl.arc.deta_dzeta(z),
-                        2 => sl.arc.eta(z) * sys.beam_info[sl.beam].length,
-                        _ => sl.contact(state, z).0 .0[k - 3],
-                    }
-                }
+                Source::Contact(j) => contact_channel(*j, *k, sys, state),
                 Source::SlidingDrive(d, _) => {
                     if *k < 2 {
                         f64::NAN
@@ -483,6 +512,7 @@ impl Channels {
                 Source::Energy => {
                     energy.get_or_insert_with(|| energy_channels(sys, state, totals))[*k]
                 }
+                Source::Friction(i) => friction_channel(*i, *k, sys, state, totals),
             };
             out.push(v);
         }
@@ -537,9 +567,9 @@ fn node_channel(src: &Source, k: usize, sys: &System, state: &State) -> f64 {
 }
 
 /// The energy sensor's channels: kinetic, potential, total, the drives', external loads' and
-/// dampers' work, numerical dissipation, and the balance of them all against the initial
-/// energy (J).
-fn energy_channels(sys: &System, state: &State, totals: &Totals) -> [f64; 8] {
+/// dampers' work, the energy friction dissipated, numerical dissipation, and the balance of
+/// them all against the initial energy (J).
+fn energy_channels(sys: &System, state: &State, totals: &Totals) -> [f64; 9] {
     let t = sys.kinetic_energy(state);
     let p = sys.potential_energy(state);
     let balance = t + p
@@ -547,6 +577,7 @@ fn energy_channels(sys: &System, state: &State, totals: &Totals) -> [f64; 8] {
         - totals.drive_work
         - totals.external_work
         - totals.damper_work
+        - totals.friction_work
         + totals.numerical_dissipation;
     [
         t,
@@ -555,9 +586,36 @@ fn energy_channels(sys: &System, state: &State, totals: &Totals) -> [f64; 8] {
         totals.drive_work,
         totals.external_work,
         totals.damper_work,
+        -totals.friction_work,
         totals.numerical_dissipation,
         balance,
     ]
+}
+
+/// Component `k` of sliding joint `j`'s contact channels: η, its rate, arc length, point.
+fn contact_channel(j: usize, k: usize, sys: &System, state: &State) -> f64 {
+    let sl = sys.joints[j].as_sliding().expect("a sliding joint");
+    let z = state.coords[sl.coord];
+    match k {
+        0 => sl.arc.eta(z),
+        1 => state.coord_rates[sl.coord] * sl.arc.deta_dzeta(z),
+        2 => sl.arc.eta(z) * sys.beam_info[sl.beam].length,
+        _ => sl.contact(state, z).0 .0[k - 3],
+    }
+}
+
+/// Component `k` of friction `i`'s state channels: slip, slip rate, whether it sticks, the
+/// energy it has dissipated (force and normal force are step quantities).
+fn friction_channel(i: usize, k: usize, sys: &System, state: &State, totals: &Totals) -> f64 {
+    use crate::joints::friction::Mode;
+    let f = &sys.frictions[i];
+    match k {
+        2 => f.slip_at(state).0,
+        3 => f.slip_at(state).1,
+        4 => f64::from(matches!(f.mode(state), Mode::Stick { .. })),
+        5 => -totals.per_friction_work.get(i).copied().unwrap_or(0.0),
+        _ => f64::NAN,
+    }
 }
 
 /// Component `k` of a beam station's channels (forces/moments, strains/curvatures, position)

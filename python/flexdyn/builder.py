@@ -36,6 +36,9 @@ Vec3 = Sequence[float]
 Function = Union[float, str, Mapping[str, Sequence[float]], "Drive"]
 #: A spring and damper on a coordinate: {"stiffness", "damping", "rest"} or {"table": ...}.
 Spring = Mapping[str, Any]
+#: `{"static": μs, "kinetic": μk, "viscous": N·s/m, "preload": N, "radius": m,
+#: "thread_angle": rad}` (see the file format's `friction:`).
+Friction = Mapping[str, Any]
 #: Where a joint's position and axes are given: the inertial frame or a node's triad.
 Frame = Literal["inertial", "node1", "node2"]
 
@@ -309,9 +312,12 @@ class Model:
         drive: Function | None = None,
         spring: Spring | None = None,
         frame: Frame | None = None,
+        friction: Friction | None = None,
     ) -> Model:
         """Prismatic joint: identical orientations, node2 slides by Δ along `axis`; `drive`
-        prescribes Δ(t) (m), `spring` acts on Δ (N/m, N·s/m)."""
+        prescribes Δ(t) (m), `spring` acts on Δ (N/m, N·s/m), `friction` opposes the slide
+        (`{"static": μs, "kinetic": μk}`; the normal force is the joint's force normal to the
+        axis)."""
         return self._joint(
             "prismatic",
             name,
@@ -322,6 +328,7 @@ class Model:
             drive=drive,
             spring=spring,
             frame=frame,
+            friction=friction,
         )
 
     def cylindrical(
@@ -336,9 +343,10 @@ class Model:
         drive_phi: Function | None = None,
         spring_phi: Spring | None = None,
         frame: Frame | None = None,
+        friction: Friction | None = None,
     ) -> Model:
         """Cylindrical joint: slides by Δ along and turns by φ about `axis`; drives and
-        springs on either."""
+        springs on either; `friction` opposes the slide along the axis."""
         return self._joint(
             "cylindrical",
             name,
@@ -351,6 +359,7 @@ class Model:
             drive_phi=drive_phi,
             spring_phi=spring_phi,
             frame=frame,
+            friction=friction,
         )
 
     def screw(
@@ -366,9 +375,12 @@ class Model:
         drive_phi: Function | None = None,
         spring_phi: Spring | None = None,
         frame: Frame | None = None,
+        friction: Friction | None = None,
     ) -> Model:
         """Screw joint: a cylindrical joint with Δ = pitch·φ (`pitch` in m/rad); drive one of
-        Δ and φ."""
+        Δ and φ. `friction` is thread friction at the mean thread `radius` (m, required):
+        `{"static": μs, "kinetic": μk, "radius": r, "thread_angle": β}`; the thread holds its
+        load without torque when μs ≥ tan α·cos β, tan α = pitch/radius."""
         return self._joint(
             "screw",
             name,
@@ -382,6 +394,7 @@ class Model:
             drive_phi=drive_phi,
             spring_phi=spring_phi,
             frame=frame,
+            friction=friction,
         )
 
     def universal(
@@ -429,19 +442,22 @@ class Model:
         drive: Function | None = None,
         spring: Spring | None = None,
         end_stops: Mapping[str, float] | None = None,
+        friction: Friction | None = None,
     ) -> Model:
         """Sliding joint: the `follower` node stays in contact with `beam` at a moving point
         η = s/L, turning freely.
 
         - `eta`: the initial η (default: the beam point closest to the follower); or
           `drive` (or `eta=drive(...)`) prescribes η(t) — its multiplier is the driving force
-          along the beam. Without a drive the contact point slides freely (no friction).
+          along the beam. Without a drive the contact point slides freely (unless `friction` is given).
         - `spring`: {"stiffness": N/m, "damping": N·s/m, "rest": η} along the beam.
         - `follower` may be "ground": a fixed guide the beam slides through.
         - `end_stops`: {"stiffness": N/m}: elastic stops at the beam's ends (else a free contact
           point reaching an end stops the run with a message).
+        - `friction`: {"static": μs, "kinetic": μk, "viscous": N·s/m, "preload": N}: Coulomb
+          friction along the beam, the normal force being the contact force normal to it.
         """
-        return self._sliding("sliding", name, beam, follower, eta, drive, spring, end_stops)
+        return self._sliding("sliding", name, beam, follower, eta, drive, spring, end_stops, friction)
 
     def sliding_screw(
         self,
@@ -452,10 +468,11 @@ class Model:
         drive: Function | None = None,
         spring: Spring | None = None,
         end_stops: Mapping[str, float] | None = None,
+        friction: Friction | None = None,
     ) -> Model:
         """Sliding screw joint: a sliding joint whose follower also turns with the beam's
         section about its axis (pre-twist and elastic twist). Arguments as `sliding`."""
-        return self._sliding("sliding_screw", name, beam, follower, eta, drive, spring, end_stops)
+        return self._sliding("sliding_screw", name, beam, follower, eta, drive, spring, end_stops, friction)
 
     def sliding_clamp(
         self,
@@ -466,12 +483,13 @@ class Model:
         drive: Function | None = None,
         spring: Spring | None = None,
         end_stops: Mapping[str, float] | None = None,
+        friction: Friction | None = None,
     ) -> Model:
         """Sliding clamp (a sleeve): the follower keeps its orientation relative to the
         section as it slides. Arguments as `sliding`."""
-        return self._sliding("sliding_clamp", name, beam, follower, eta, drive, spring, end_stops)
+        return self._sliding("sliding_clamp", name, beam, follower, eta, drive, spring, end_stops, friction)
 
-    def _sliding(self, kind, name, beam, follower, eta, drive, spring, end_stops) -> Model:
+    def _sliding(self, kind, name, beam, follower, eta, drive, spring, end_stops, friction=None) -> Model:
         if isinstance(eta, Drive):
             if drive is not None:
                 raise ValueError(
@@ -482,6 +500,7 @@ class Model:
         fields["drive"] = drive.function if isinstance(drive, Drive) else drive
         fields["spring"] = dict(spring) if spring is not None else None
         fields["end_stops"] = dict(end_stops) if end_stops is not None else None
+        fields["friction"] = dict(friction) if friction is not None else None
         self.data["joints"].append(_drop_none(copy.deepcopy(fields)))
         return self
 
@@ -573,7 +592,8 @@ class Model:
         """A sensor of `type` (its `type:` in the file), its other keys as keyword arguments:
         node_position, node_displacement, node_rotation, node_velocity (node=...);
         relative_position (node=..., reference=...); joint_coordinate, joint_reaction,
-        drive_force (joint=..., coordinate=...); beam_section (beam=..., eta=... or s=...),
+        drive_force (joint=..., coordinate=...); friction (joint=...: force, normal force, slip,
+        slip rate, stick, dissipation); beam_section (beam=..., eta=... or s=...),
         beam_energy (beam=...); energy; momentum. `component=` keeps one channel."""
         if "kind" in fields:
             _deprecated("sensor(kind=...)", "sensor(type=...)")

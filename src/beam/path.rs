@@ -250,6 +250,13 @@ impl ArcMap {
         self.ends.len() - 1
     }
 
+    /// The piece of η(ζ) holding ζ (the end pieces extend past the ends): its element (as a
+    /// number), η at the element's start, and its slope dη/dζ.
+    pub fn piece(&self, zeta: f64) -> (f64, f64, f64) {
+        let e = (zeta.max(0.0).floor() as usize).min(self.elements() - 1);
+        (e as f64, self.ends[e], self.ends[e + 1] - self.ends[e])
+    }
+
     /// dη/dζ at ζ.
     pub fn deta_dzeta(&self, zeta: f64) -> f64 {
         let e = (zeta.max(0.0).floor() as usize).min(self.elements() - 1);

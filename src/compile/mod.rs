@@ -7,6 +7,7 @@
 
 pub mod beams;
 pub mod bodies;
+pub mod friction;
 pub mod joints;
 pub mod loads;
 pub mod names;
@@ -147,7 +148,7 @@ fn assemble(
         rows.coords0.len(),
         rows.n_rows(),
     );
-    let (beams, history) = beams::elements(&mut placed.meshed, &layout);
+    let (beams, mut history) = beams::elements(&mut placed.meshed, &layout);
     let targets = loads::Targets {
         nodes: table,
         meshed: &placed.meshed,
@@ -155,8 +156,12 @@ fn assemble(
         elements: &beams,
     };
     let loads = loads::compile(model, &targets, &layout)?;
-    let kernels = rows.build(&layout);
+    let mut kernels = rows.build(&layout, &mut history);
     let scales = Scales::of(table, &beams, &kernels.springs, &rows.coords0);
+    for f in &mut kernels.frictions {
+        // A billionth of the weight of the mean node: below it a force is nothing.
+        f.force_floor = 1e-9 * scales.mass * 9.81;
+    }
     let mut cm_node = vec![None; table.states.len()];
     for l in &placed.links {
         cm_node[l.node] = Some((l.cm, l.offset));
@@ -181,6 +186,7 @@ fn assemble(
         joint_info: rows.joint_info,
         springs: kernels.springs,
         drives: kernels.drives,
+        frictions: kernels.frictions,
         loads: loads.points,
         line_loads: loads.lines,
         gravity: V3(model.gravity),

@@ -3,6 +3,7 @@
 
 use crate::beam::path::ArcMap;
 use crate::elements::coordinate::{CoordinateDrive, CoordinateSpring, SpringLaw};
+use crate::joints::friction::{self, Coefficients, Friction, Normal, Slip};
 use crate::joints::Joint;
 use crate::math::layout::Layout;
 use crate::math::time_function::TimeFunction;
@@ -25,6 +26,17 @@ struct PendingDrive {
     map: Option<ArcMap>,
 }
 
+struct PendingFriction {
+    name: String,
+    /// The joint's kernel, whose rows `normal` and `moment` name (local rows).
+    joint: usize,
+    coefficients: Coefficients,
+    slip: Slip,
+    coords: Vec<usize>,
+    normal: Normal,
+    moment: Option<(usize, f64)>,
+}
+
 struct PendingSpring {
     coord: usize,
     law: SpringLaw,
@@ -40,6 +52,7 @@ pub struct RowTable {
     joints: Vec<PendingJoint>,
     drives: Vec<PendingDrive>,
     springs: Vec<PendingSpring>,
+    frictions: Vec<PendingFriction>,
 }
 
 /// The kernels on the coordinates and rows, and each row's owner.
@@ -47,6 +60,7 @@ pub struct Rows {
     pub joints: Vec<Joint>,
     pub springs: Vec<CoordinateSpring>,
     pub drives: Vec<CoordinateDrive>,
+    pub frictions: Vec<Friction>,
     /// Per constraint row: the owning item's name and its local row (drive rows last).
     pub row_names: Vec<(String, usize)>,
 }
@@ -92,20 +106,48 @@ impl RowTable {
         self.joints.len() - 1
     }
 
-    /// Constraint rows: the joints', then one per drive.
-    pub fn n_rows(&self) -> usize {
-        self.joints.iter().map(|j| j.rows).sum::<usize>() + self.drives.len()
+    /// Friction on joint kernel `joint`'s coordinates `coords`, its normal force from the
+    /// joint's (local) rows; one row of its own.
+    #[allow(clippy::too_many_arguments)]
+    pub fn friction(
+        &mut self,
+        name: &str,
+        joint: usize,
+        coefficients: Coefficients,
+        slip: Slip,
+        coords: Vec<usize>,
+        normal: Normal,
+        moment: Option<(usize, f64)>,
+    ) {
+        self.frictions.push(PendingFriction {
+            name: name.to_string(),
+            joint,
+            coefficients,
+            slip,
+            coords,
+            normal,
+            moment,
+        });
     }
 
-    /// The kernels, joint rows first and drive rows after them.
-    pub fn build(&mut self, layout: &Layout) -> Rows {
+    /// Constraint rows: the joints', then one per drive, then one per friction.
+    pub fn n_rows(&self) -> usize {
+        self.joints.iter().map(|j| j.rows).sum::<usize>() + self.drives.len() + self.frictions.len()
+    }
+
+    /// The kernels, joint rows first, drive rows after them, friction rows last; frictions
+    /// append their history to `history`.
+    pub fn build(&mut self, layout: &Layout, history: &mut Vec<f64>) -> Rows {
         let mut row_names = Vec::with_capacity(self.n_rows());
         let mut row = 0;
+        let n_drives = self.drives.len();
+        let mut row0 = Vec::with_capacity(self.joints.len());
         let joints = self
             .joints
             .drain(..)
             .map(|j| {
                 row_names.extend((0..j.rows).map(|k| (j.name.clone(), k)));
+                row0.push(row);
                 row += j.rows;
                 (j.build)(row - j.rows, layout)
             })
@@ -121,6 +163,34 @@ impl RowTable {
                 kernel
             })
             .collect();
+        let first_friction = row + n_drives;
+        let frictions = self
+            .frictions
+            .drain(..)
+            .enumerate()
+            .map(|(k, f)| {
+                row_names.push((format!("{}.friction", f.name), 0));
+                let at = row0[f.joint];
+                let h0 = history.len();
+                // Sliding until the run sets its mode from the initial velocities (a stick
+                // row would hold the initial velocity projection's slip).
+                history.extend([1.0, 0.0, -1.0]);
+                debug_assert_eq!(friction::HISTORY_LEN, 3);
+                let mut kernel = Friction::new(
+                    f.name,
+                    f.coefficients,
+                    f.slip,
+                    &f.coords,
+                    f.normal.offset(at),
+                    f.moment.map(|(r, inv)| (r + at, inv)),
+                    first_friction + k,
+                    h0,
+                    layout,
+                );
+                kernel.kernel = f.joint;
+                kernel
+            })
+            .collect();
         let springs = self
             .springs
             .drain(..)
@@ -130,6 +200,7 @@ impl RowTable {
             joints,
             springs,
             drives,
+            frictions,
             row_names,
         }
     }

@@ -23,7 +23,8 @@ pub fn check(model: &Model, names: &NodeNames, c: &mut Checker) {
             }
             Sensor::JointCoordinate { joint, .. }
             | Sensor::JointReaction { joint, .. }
-            | Sensor::DriveForce { joint, .. } => match joints.get(joint.as_str()) {
+            | Sensor::DriveForce { joint, .. }
+            | Sensor::Friction { joint, .. } => match joints.get(joint.as_str()) {
                 None => c.err(
                     format!("{p}.joint"),
                     format!("refers to joint `{joint}`, which is not defined in `joints`"),
@@ -49,6 +50,10 @@ fn check_joint_sensor(s: &Sensor, j: &Joint, c: &mut Checker, p: &str) {
                 "joint `{joint}` is a {} joint, which has no relative coordinate",
                 j.kind()
             ),
+        ),
+        Sensor::Friction { joint, .. } if j.friction().is_none() => c.err(
+            format!("{p}.joint"),
+            format!("joint `{joint}` has no `friction`; give it one, or sense another joint"),
         ),
         Sensor::DriveForce { coordinate, .. } => {
             if let Err(e) = driven_coordinate(j, coordinate.as_deref()) {

@@ -31,6 +31,12 @@ impl Integrator {
             n.w = crate::math::vec3::V3::zero();
         }
         rest.coord_rates.iter_mut().for_each(|r| *r = 0.0);
+        // Joints with friction slide (with no normal force yet, freely): the scale is the
+        // motion the loads can cause, not the one friction lets them start with.
+        for f in &sys.frictions {
+            let free = crate::joints::friction::Mode::Slip { direction: 1.0 };
+            f.set_mode(&mut rest, free, -1.0);
+        }
         let layout = sys.layout;
         let ctx = StepCtx {
             layout,

@@ -61,6 +61,10 @@ pub struct StepReport {
     pub max_violation: f64,
     /// Per drive: driving force/torque.
     pub drive_forces: Vec<f64>,
+    /// Per friction: its force, normal force, slip and work over the step.
+    pub frictions: Vec<crate::joints::friction::FrictionStep>,
+    /// Work of all friction forces over the step (never positive).
+    pub friction_work: f64,
     /// Per joint kernel: reaction force and moment on node2 at the joint point (inertial), and
     /// the joint frame on node2's side.
     pub reactions: Vec<(V3<f64>, V3<f64>, crate::math::vec3::M3<f64>)>,
@@ -117,6 +121,7 @@ pub struct Integrator {
     joint_pos: Vec<Vec<usize>>,
     spring_pos: Vec<Vec<usize>>,
     drive_pos: Vec<Vec<usize>>,
+    friction_pos: Vec<Vec<usize>>,
     load_pos: Vec<Vec<usize>>,
     line_load_pos: Vec<Vec<usize>>,
     y: Vec<f64>,
@@ -203,6 +208,7 @@ impl Integrator {
         blocks.extend(sys.joints.iter().map(|k| k.unknowns()));
         blocks.extend(sys.springs.iter().map(|k| k.unknowns()));
         blocks.extend(sys.drives.iter().map(|k| k.unknowns()));
+        blocks.extend(sys.frictions.iter().map(|k| k.unknowns()));
         blocks.extend(sys.loads.iter().map(|k| k.unknowns()));
         blocks.extend(sys.line_loads.iter().map(|k| k.unknowns()));
         let n = sys.layout.n_unknowns();
@@ -211,6 +217,7 @@ impl Integrator {
         let (matrix, mut pos) = NewtonMatrix::from_blocks(n, &blocks, Some(&masks));
         let line_load_pos = pos.split_off(pos.len() - sys.line_loads.len());
         let load_pos = pos.split_off(pos.len() - sys.loads.len());
+        let friction_pos = pos.split_off(pos.len() - sys.frictions.len());
         let drive_pos = pos.split_off(pos.len() - sys.drives.len());
         let spring_pos = pos.split_off(pos.len() - sys.springs.len());
         let joint_pos = pos.split_off(pos.len() - sys.joints.len());
@@ -223,6 +230,7 @@ impl Integrator {
             joint_pos,
             spring_pos,
             drive_pos,
+            friction_pos,
             load_pos,
             line_load_pos,
             y: vec![0.0; n],
@@ -303,6 +311,7 @@ impl Integrator {
             all.extend(sys.joints.iter().map(|k| k.structure(&ctx, &y)));
             all.extend(sys.springs.iter().map(|k| k.structure(&ctx, &y)));
             all.extend(sys.drives.iter().map(|k| k.structure(&ctx, &y)));
+            all.extend(sys.frictions.iter().map(|k| k.structure(&ctx, &y)));
             all.extend(sys.loads.iter().map(|k| k.structure(&ctx, &y)));
             all.extend(sys.line_loads.iter().map(|k| k.structure(&ctx, &y)));
             if masks.is_empty() {
@@ -519,6 +528,7 @@ impl Integrator {
         run!(sys.joints, self.joint_pos);
         run!(sys.springs, self.spring_pos);
         run!(sys.drives, self.drive_pos);
+        run!(sys.frictions, self.friction_pos);
         run!(sys.loads, self.load_pos);
         run!(sys.line_loads, self.line_load_pos);
         if with_jacobian && self.matrix.outside_pattern() > 1e-10 {
@@ -1079,8 +1089,8 @@ impl Integrator {
     }
 
     /// The step's energy bookkeeping (ed-scheme-notes §3.4): `E_f − E_i = W_drive + W_ext +
-    /// W_damp − D` (W_damp: joint dampers and the beams' structural damping), and the
-    /// constraint forces' work (zero to round-off).
+    /// W_damp + W_friction − D` (W_damp: joint dampers and the beams' structural damping), and
+    /// the constraint forces' work (zero to round-off).
     fn account_energy(&self, sys: &System, ctx: &StepCtx, report: &mut StepReport) {
         let layout = sys.layout;
         let (h, st, y) = (ctx.h, ctx.state, &self.y);
@@ -1124,5 +1134,7 @@ impl Integrator {
             report.numerical_dissipation = d.iter().sum();
         }
         report.constraint_work = sys.joints.iter().map(|j| j.step_work(ctx, y)).sum();
+        report.frictions = sys.frictions.iter().map(|f| f.step(ctx, y)).collect();
+        report.friction_work = report.frictions.iter().map(|f| f.work).sum();
     }
 }

@@ -14,6 +14,7 @@
 pub mod clamp;
 pub mod cylindrical;
 pub mod equations;
+pub mod friction;
 pub mod kinematics;
 pub mod prismatic;
 pub mod revolute;

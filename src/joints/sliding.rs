@@ -789,6 +789,24 @@ impl SlidingJoint {
         (p, orthonormal_frame(d1, d2), dp.norm())
     }
 
+    /// The beam's axis (section axis 1) at the contact point, predicted at the middle of a
+    /// step of `h` from `state`: ζ advanced at its rate, each node's triad turned by its
+    /// angular velocity over h/2 — second-order accurate, for quantities that belong to the
+    /// step's middle (a friction's normal force).
+    pub fn mid_step_axis(&self, state: &State, h: f64) -> V3<f64> {
+        let zeta = state.coords[self.coord] + 0.5 * h * state.coord_rates[self.coord];
+        let w = self.path.weights_in(zeta, self.path.all());
+        let mut d1 = V3::zero();
+        let mut d2 = V3::zero();
+        for (n, weight) in w.iter() {
+            let node = &state.nodes[self.beam_nodes[n]];
+            let r = crate::math::rotation::exp_map(&node.omega().scale_f(0.5 * h)).mul_m(&node.r);
+            d1 += r.col(0).scale_f(weight);
+            d2 += r.col(1).scale_f(weight);
+        }
+        orthonormal_frame(d1, d2).col(0)
+    }
+
     /// Constraint values at a state.
     pub fn values_at(&self, state: &State) -> [f64; MAX_ROWS] {
         let zeta = state.coords[self.coord];

@@ -396,6 +396,9 @@ pub struct SlidingJoint {
     /// the run): the contact point bounces off them.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub end_stops: Option<EndStops>,
+    /// Coulomb friction on the sliding motion (see [`Friction`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<Friction>,
 }
 
 /// Elastic end stops of a sliding joint: no force on the beam, a linear spring of the given
@@ -428,6 +431,9 @@ pub struct PrismaticJoint {
     /// Spring and damper on Δ (N/m, N·s/m).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spring: Option<SpringDamper>,
+    /// Coulomb friction on the sliding motion (see [`Friction`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<Friction>,
 }
 
 #[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
@@ -457,6 +463,9 @@ pub struct CylindricalJoint {
     /// Spring and damper on φ.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spring_phi: Option<SpringDamper>,
+    /// Coulomb friction on the sliding motion (see [`Friction`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<Friction>,
 }
 
 #[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
@@ -485,6 +494,56 @@ pub struct ScrewJoint {
     pub drive_phi: Option<TimeFunctionSpec>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spring_phi: Option<SpringDamper>,
+    /// Thread friction (see [`Friction`]; needs its `radius`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<Friction>,
+}
+
+/// Coulomb friction on a joint's sliding motion: a friction force opposing the slip, at most
+/// `static`·N while the joint sticks and `kinetic`·N + `viscous`·(slip rate) while it slides,
+/// with N the joint's own normal force (its constraint forces normal to the slip) plus
+/// `preload`. Sticking is exact (the joint is held, no creep); static and dynamic analyses
+/// with the same model differ in that statics and modes leave friction out.
+///
+/// - prismatic, cylindrical: slip along the axis (Δ); N = the force normal to the axis;
+/// - sliding, sliding clamp: slip along the beam (arc length); N = the contact force normal to
+///   the beam's axis;
+/// - sliding screw: as sliding, plus (with `radius`) the twisting moment the follower exerts
+///   about the beam's axis over `radius`;
+/// - screw: thread friction along the helix at the mean thread `radius` (lead angle
+///   α = atan(pitch/radius)); N = the thread's normal force, axial load/(cos α cos β) with
+///   β the `thread_angle`. The thread holds its load without a torque (self-locking) when
+///   `static` ≥ tan α · cos β.
+#[derive(Serialize, Deserialize, JsonSchema, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct Friction {
+    /// Static coefficient μs (–): the largest friction force while sticking is μs·N.
+    #[serde(rename = "static")]
+    pub static_coefficient: f64,
+    /// Kinetic coefficient μk ≤ μs (–), the friction force μk·N while sliding. Default: μs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kinetic: Option<f64>,
+    /// Viscous part while sliding, N·s/m of slip rate (default 0).
+    #[serde(default)]
+    pub viscous: f64,
+    /// Normal force present whatever the joint carries (a spring-loaded guide), N (default 0).
+    #[serde(default)]
+    pub preload: f64,
+    /// m: a screw's mean thread radius (required for a screw joint); for a sliding screw,
+    /// the radius at which its twisting moment is carried (optional).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius: Option<f64>,
+    /// Half-angle of the thread's profile, rad (0: square thread; 0.5236 for ISO metric
+    /// threads, 0.2531 for Acme). Screw joints only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thread_angle: Option<f64>,
+}
+
+impl Friction {
+    /// μk (μs when not given).
+    pub fn kinetic_coefficient(&self) -> f64 {
+        self.kinetic.unwrap_or(self.static_coefficient)
+    }
 }
 
 /// Where a joint's geometry is given.
@@ -611,6 +670,18 @@ impl Joint {
         }
     }
     /// The sliding joint's data, for the three sliding types.
+    /// The joint's friction, for the kinds that can carry it.
+    pub fn friction(&self) -> Option<&Friction> {
+        match self {
+            Joint::Prismatic(j) => j.friction.as_ref(),
+            Joint::Cylindrical(j) => j.friction.as_ref(),
+            Joint::Screw(j) => j.friction.as_ref(),
+            Joint::Sliding(j) | Joint::SlidingScrew(j) | Joint::SlidingClamp(j) => {
+                j.friction.as_ref()
+            }
+            _ => None,
+        }
+    }
     pub fn sliding(&self) -> Option<&SlidingJoint> {
         match self {
             Joint::Sliding(j) | Joint::SlidingScrew(j) | Joint::SlidingClamp(j) => Some(j),
@@ -944,7 +1015,21 @@ pub enum Sensor {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         component: Option<String>,
     },
-    /// `.kinetic .potential .total .drive_work .external_work .damper_work .numerical_dissipation`, J.
+    /// A joint's friction (the joint must have `friction:`): the friction force on the slip
+    /// `.force` (N; it opposes the slip: positive when it pushes towards −u), the normal force
+    /// `.normal` (N), the slip `.slip` (m along the slip's direction: Δ, the arc length on the
+    /// beam, or the length along a screw's helix) and its rate `.slip_rate` (m/s), the mode
+    /// `.stick` (1 while stuck, 0 while sliding), and the energy it has dissipated
+    /// `.dissipation` (J).
+    Friction {
+        name: String,
+        joint: String,
+        /// Keep only this component, as one channel named after the sensor.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        component: Option<String>,
+    },
+    /// `.kinetic .potential .total .drive_work .external_work .damper_work
+    /// .friction_dissipation .numerical_dissipation .balance`, J.
     Energy {
         name: String,
         /// Keep only this component, as one channel named after the sensor.
@@ -1001,6 +1086,7 @@ impl Sensor {
             | Sensor::JointCoordinate { component, .. }
             | Sensor::JointReaction { component, .. }
             | Sensor::DriveForce { component, .. }
+            | Sensor::Friction { component, .. }
             | Sensor::BeamSection { component, .. }
             | Sensor::BeamEnergy { component, .. }
             | Sensor::Energy { component, .. }
@@ -1018,6 +1104,7 @@ impl Sensor {
             | Sensor::JointCoordinate { name, .. }
             | Sensor::JointReaction { name, .. }
             | Sensor::DriveForce { name, .. }
+            | Sensor::Friction { name, .. }
             | Sensor::BeamSection { name, .. }
             | Sensor::BeamEnergy { name, .. }
             | Sensor::Energy { name, .. }

@@ -85,7 +85,7 @@ fn rigid_accelerations(
     settings: &SimulationSettings,
     state: &State,
 ) -> Result<Vec<Acceleration>, String> {
-    let rigid = compile::compile(&rigidified(model), Scheme::Ep)
+    let mut rigid = compile::compile(&rigidified(model), Scheme::Ep)
         .map_err(|e| format!("the rigidified mechanism does not compile: {}", e.0[0]))?;
     let mut start = rigid.initial.clone();
     if start.nodes.len() != state.nodes.len() || start.coords.len() != state.coords.len() {
@@ -97,6 +97,7 @@ fn rigid_accelerations(
     start.coord_rates.clone_from(&state.coord_rates);
     start.history.clone_from(&state.history);
     super::initial_velocities::project_velocities(&rigid, &mut start);
+    super::stick_slip::start_frictions(&mut rigid, &mut start);
     let h = super::outputs::instant_step(&rigid, &start, settings.dt.min(settings.dt_max()));
     let mut ep = settings.clone();
     ep.scheme = Scheme::Ep;

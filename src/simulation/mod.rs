@@ -6,6 +6,7 @@ mod inertial_preload;
 mod initial_velocities;
 mod outputs;
 mod step_control;
+mod stick_slip;
 mod velocity_projection;
 
 pub use initial_velocities::project_initial_velocities;
@@ -152,11 +153,13 @@ impl Simulation {
         let statics = model.simulation.analysis == Analysis::Static;
         // A static solve has no velocities: it uses the EP layout whatever the scheme.
         let layout_scheme = if statics { Scheme::Ep } else { scheme };
-        let system = crate::compile::compile(model, layout_scheme).map_err(SimError::Model)?;
+        let mut system = crate::compile::compile(model, layout_scheme).map_err(SimError::Model)?;
         check_redundancy(model, &system).map_err(|e| SimError::Model(e.located(model)))?;
         let mut settings = model.simulation.clone();
         settings.scheme = scheme;
-        let (state, warnings) = initial_state(model, &system, &settings, statics)?;
+        let (mut state, mut warnings) = initial_state(model, &system, &settings, statics)?;
+        stick_slip::start_frictions(&mut system, &mut state);
+        warnings.extend(stick_slip::static_friction_warning(&system, statics));
         let mut integrator = Integrator::new(&system, &settings);
         let energy_floor = if statics || settings.step_control == StepControl::Fixed {
             0.0
@@ -175,6 +178,7 @@ impl Simulation {
         let totals = Totals {
             initial_energy: e0,
             per_drive_work: vec![0.0; system.drives.len()],
+            per_friction_work: vec![0.0; system.frictions.len()],
             ..Default::default()
         };
         let mut sim = Simulation {
@@ -268,12 +272,17 @@ impl Simulation {
                 }
             }
         }
+        // Friction rows come last in the layout; statics and modes leave friction out, so
+        // its rows (only `F = 0` in statics) are dropped.
+        let n = lay.n_unknowns() - sys.frictions.len();
+        let mut labels = self.unknown_labels();
+        labels.truncate(n);
         Linearization {
-            n: lay.n_unknowns(),
-            stiffness,
+            n,
+            stiffness: leading_block(stiffness, n),
             mass,
             damping: self.damping_matrix(),
-            labels: self.unknown_labels(),
+            labels,
         }
     }
 
@@ -464,11 +473,20 @@ impl Simulation {
         t.drive_work += report.drive_work;
         t.external_work += report.external_work;
         t.damper_work += report.damper_work;
+        t.friction_work += report.friction_work;
+        for (w, f) in t.per_friction_work.iter_mut().zip(&report.frictions) {
+            *w += f.work;
+        }
         t.numerical_dissipation += report.numerical_dissipation;
         for (w, dw) in t.per_drive_work.iter_mut().zip(report.drive_works.iter()) {
             *w += dw;
         }
-        let defect = e_f - e_i - report.drive_work - report.external_work - report.damper_work
+        let defect = e_f
+            - e_i
+            - report.drive_work
+            - report.external_work
+            - report.damper_work
+            - report.friction_work
             + report.numerical_dissipation;
         self.stats.max_energy_defect = self.stats.max_energy_defect.max(defect.abs());
         self.stats.max_constraint_violation = self
@@ -484,15 +502,21 @@ impl Simulation {
         self.record_outputs(&start);
     }
 
-    /// One step to time `end`, retried as two halves (recursively) if Newton fails.
+    /// One step to time `end`, retried as two halves (recursively) if Newton fails; a
+    /// friction event inside it ends a step there and the rest follows.
     fn advance_interval(&mut self, end: f64, depth: u32) -> Result<(), StepFailure> {
         self.follow_contacts();
         let h = end - self.state.t;
-        match self.integrator.step(&self.system, &self.state, h) {
-            Ok((mut state, report)) => {
+        match self.step_with_friction(h) {
+            Ok(step) if step.h < h => {
+                self.accept(step.state, step.report, step.h);
+                self.advance_interval(end, depth)
+            }
+            Ok(step) => {
+                let mut state = step.state;
                 // Exactly on the grid k·dt (no drift in t).
                 state.t = end;
-                self.accept(state, report, h);
+                self.accept(state, step.report, h);
                 Ok(())
             }
             Err(e) if e.retry && depth < self.settings.max_step_halvings => {
@@ -725,6 +749,27 @@ pub struct Linearization {
     /// The viscous damping matrix as triplets (zero for an undamped model).
     pub damping: (Vec<usize>, Vec<usize>, Vec<f64>),
     pub labels: Vec<String>,
+}
+
+/// The leading `n × n` block of a matrix in compressed sparse columns.
+fn leading_block(
+    (ptr, idx, val): (Vec<usize>, Vec<usize>, Vec<f64>),
+    n: usize,
+) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
+    if ptr.len() == n + 1 {
+        return (ptr, idx, val);
+    }
+    let mut out = (vec![0], Vec::new(), Vec::new());
+    for j in 0..n {
+        for p in ptr[j]..ptr[j + 1] {
+            if idx[p] < n {
+                out.1.push(idx[p]);
+                out.2.push(val[p]);
+            }
+        }
+        out.0.push(out.1.len());
+    }
+    out
 }
 
 fn push_entry(t: &mut (Vec<usize>, Vec<usize>, Vec<f64>), i: usize, j: usize, v: f64) {

@@ -179,15 +179,15 @@ impl Simulation {
         let mut previous_trial: Option<(f64, f64)> = None;
         loop {
             self.follow_contacts();
-            let tried =
-                self.integrator
-                    .step(&self.system, &self.state, h)
-                    .and_then(|(state, report)| {
-                        let e = self.local_error(&state, h, &report)?;
-                        Ok((state, report, e))
-                    });
+            let tried = self.step_with_friction(h).and_then(|step| {
+                let e = self.local_error(&step.state, step.h, &step.report)?;
+                Ok((step, e))
+            });
             match tried {
-                Ok((state, report, e)) => {
+                Ok((step, e)) => {
+                    let (state, report, event) = (step.state, step.report, step.event);
+                    // A friction event ends the step early: that is the step taken.
+                    h = step.h;
                     let stuck =
                         previous_trial.is_some_and(|(h0, e0)| h < 0.67 * h0 && e > 0.9 * e0);
                     previous_trial = Some((h, e));
@@ -203,6 +203,13 @@ impl Simulation {
                         } else {
                             (h * factor).clamp(dt_min, dt_max)
                         };
+                        if event {
+                            // The motion's history says nothing about the motion after a
+                            // stick–slip event: start afresh, from the size asked before it.
+                            self.recent_means.clear();
+                            self.controller = Controller::default();
+                            self.h_next = self.h_next.max(first_h.min(dt_max));
+                        }
                         return Ok(());
                     }
                     self.stats.rejected += 1;

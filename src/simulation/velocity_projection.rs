@@ -201,6 +201,36 @@ impl VelocityProjection {
         for d in &sys.drives {
             self.add(lay.mult(d.row), lay.coord_delta(d.coord), 1.0);
         }
+        // A sticking joint's friction holds its slip like a drive at rest.
+        for f in &sys.frictions {
+            if let crate::joints::friction::Mode::Stick { .. } = f.mode(state) {
+                let (_, rates) = f.stick_gradient(state);
+                for (&c, &b) in f.coords().iter().zip(&rates) {
+                    self.add(lay.mult(f.row), lay.coord_delta(c), b);
+                }
+            }
+        }
+    }
+
+    /// The rows' velocity-level values `B V` at `state`'s velocities, per constraint row.
+    pub fn rows_at(&self, state: &State) -> Vec<f64> {
+        let lay = self.lay;
+        let mut x = vec![0.0; self.n];
+        for (a, n) in state.nodes.iter().enumerate() {
+            n.v.write_to(&mut x[lay.node_delta(a)..]);
+            n.w.write_to(&mut x[lay.node_delta(a) + 3..]);
+        }
+        for (c, &r) in state.coord_rates.iter().enumerate() {
+            x[lay.coord_delta(c)] = r;
+        }
+        let first_row = lay.mult(0);
+        let mut rows = vec![0.0; lay.n_rows];
+        for &(i, j, v) in self.entries.iter().chain(&self.eliminated) {
+            if i >= first_row && j < first_row {
+                rows[i - first_row] += v * x[j];
+            }
+        }
+        rows
     }
 
     /// The right-hand side for target velocities `state`'s (held ones kept, followers'

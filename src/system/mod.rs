@@ -12,6 +12,7 @@ use crate::beam::line_load::FollowerLineLoad;
 use crate::elements::coordinate::{CoordinateDrive, CoordinateSpring};
 use crate::elements::inertia::{NodeInertia, SteadySpin};
 use crate::elements::loads::PointLoad;
+use crate::joints::friction::Friction;
 use crate::joints::Joint;
 use crate::math::layout::Layout;
 use crate::math::time_function::TimeFunction;
@@ -98,6 +99,8 @@ pub struct System {
     pub joint_info: Vec<JointInfo>,
     pub springs: Vec<CoordinateSpring>,
     pub drives: Vec<CoordinateDrive>,
+    /// Friction on joints' sliding motion, one row each (after the drives' rows).
+    pub frictions: Vec<Friction>,
     pub loads: Vec<PointLoad>,
     /// Distributed loads following a beam's sections, one kernel per element.
     pub line_loads: Vec<FollowerLineLoad>,

@@ -15,7 +15,8 @@ pub struct Dependence {
 }
 
 /// The dense velocity-level constraint matrix `B` (rows: constraint rows; columns: each
-/// node's `[v, ω]` and the coordinates).
+/// node's `[v, ω]` and the coordinates). Friction rows are zero: they constrain nothing
+/// unless their joint sticks (see [`can_stick`]).
 fn constraint_matrix(sys: &System, state: &State) -> Vec<Vec<f64>> {
     let n_nodes = sys.layout.n_nodes;
     let cols = 6 * n_nodes + sys.layout.n_coords;
@@ -48,7 +49,39 @@ fn constraint_matrix(sys: &System, state: &State) -> Vec<Vec<f64>> {
 /// longer matter); Gaussian elimination with full pivoting on `[B | I]` leaves, for each
 /// dependent row, the combination of original rows that vanishes.
 pub fn dependences(sys: &System, state: &State) -> Vec<Dependence> {
+    let friction_rows: Vec<usize> = sys.frictions.iter().map(|f| f.row).collect();
     let mut a = constraint_matrix(sys, state);
+    let rows: Vec<usize> = (0..a.len())
+        .filter(|r| !friction_rows.contains(r))
+        .collect();
+    let a: Vec<Vec<f64>> = rows.iter().map(|&r| std::mem::take(&mut a[r])).collect();
+    eliminate(sys, a, &rows)
+}
+
+/// Whether friction `k`'s joint can stick at `state`: its stick row (the slip held) is
+/// independent of the joints' and drives' rows — not when a drive or the mechanism
+/// prescribes the slip.
+pub fn can_stick(sys: &System, state: &State, k: usize) -> bool {
+    let f = &sys.frictions[k];
+    let skip: Vec<usize> = sys
+        .frictions
+        .iter()
+        .map(|g| g.row)
+        .filter(|&r| r != f.row)
+        .collect();
+    let mut a = constraint_matrix(sys, state);
+    let n_nodes = sys.layout.n_nodes;
+    let (_, rates) = f.stick_gradient(state);
+    for (&c, &b) in f.coords().iter().zip(rates.iter()) {
+        a[f.row][6 * n_nodes + c] = b;
+    }
+    let rows: Vec<usize> = (0..a.len()).filter(|r| !skip.contains(r)).collect();
+    let a: Vec<Vec<f64>> = rows.iter().map(|&r| std::mem::take(&mut a[r])).collect();
+    eliminate(sys, a, &rows).is_empty()
+}
+
+/// The dependences among rows `a` (original row numbers `rows`).
+fn eliminate(sys: &System, mut a: Vec<Vec<f64>>, rows: &[usize]) -> Vec<Dependence> {
     let m = a.len();
     if m == 0 {
         return vec![];
@@ -108,7 +141,7 @@ pub fn dependences(sys: &System, state: &State) -> Vec<Dependence> {
             let big = c.iter().fold(0.0f64, |x, v| x.max(v.abs()));
             let mut owners: Vec<String> = Vec::new();
             for (r, v) in c.iter().enumerate() {
-                let owner = &sys.row_names[r].0;
+                let owner = &sys.row_names[rows[r]].0;
                 if v.abs() > 1e-6 * big && !owners.contains(owner) {
                     owners.push(owner.clone());
                 }

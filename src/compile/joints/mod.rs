@@ -63,6 +63,7 @@ pub fn check(model: &model::Model, names: &NodeNames, c: &mut Checker) {
             None => check_sides(j, names, c, &p),
         }
         coordinates::check(j, c, &p);
+        super::friction::check(j, c, &p);
         if let Some(kind) = pair_joint(j) {
             kind.check(c, &p);
         }
@@ -112,12 +113,19 @@ pub fn compile(
         Joint::Pair(JointKernel::new(kernel_name, law, sides, ids, row, layout))
     };
     let kernel = rows.joint(name.clone(), n_rows, Box::new(build));
+    if let Some(f) = j.friction() {
+        super::friction::pair(j, f, kernel, &ids_of(&info), rows);
+    }
     rows.joint_info.push(JointInfo {
         name,
         kernel,
         coords: info,
     });
     Ok(())
+}
+
+fn ids_of(info: &[crate::system::JointCoordinate]) -> Vec<usize> {
+    info.iter().map(|c| c.coord).collect()
 }
 
 /// A joint's sides and initial configuration: where its geometry is attached.

@@ -185,6 +185,7 @@ pub fn compile(
     let n_rows = law.n_rows();
     let (name, beam_nodes) = (sl.name.clone(), info.nodes.clone());
     let end_stops = sl.end_stops.is_some();
+    let arc = map.clone();
     let build = move |row, layout: &_| {
         let mut kernel = Kernel::new(
             name, law, beam_path, beam_nodes, s.follower, eta.coord, row, layout, s.zeta0,
@@ -195,6 +196,9 @@ pub fn compile(
         Joint::Sliding(kernel)
     };
     let kernel = rows.joint(sl.name.clone(), n_rows, Box::new(build));
+    if let Some(f) = &sl.friction {
+        super::friction::sliding(j, f, kernel, eta.coord, arc, info.length, rows);
+    }
     rows.joint_info.push(JointInfo {
         name: sl.name.clone(),
         kernel,

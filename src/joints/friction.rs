@@ -1,0 +1,643 @@
+//! Coulomb friction on a joint's sliding motion: prismatic, cylindrical and screw joints, and
+//! the sliding family (a follower on a beam).
+//!
+//! The joint's **slip** `u` is a function of its relative coordinates: Δ (prismatic,
+//! cylindrical), the arc length `L η(ζ)` along the beam (sliding joints), the length along a
+//! screw's helix `Δ sin α + r φ cos α` (lead angle α, thread radius r). The **normal force**
+//! `N` comes from the joint's own constraint forces (the multipliers normal to the slip), plus
+//! a preload. The friction force `F` on the slip is one extra multiplier with its own row,
+//! which holds one of two equations, the joint's *mode* for the step:
+//!
+//! - **stick**: `u_f = u_hold`, a scleronomic constraint on the coordinates (the generic EP/ED
+//!   equations of a drive with a constant target; ED adds its velocity-level row) — stiction is
+//!   exact, nothing creeps. `F` is whatever holds the joint.
+//! - **slip** in direction `d = ±1`: `F = d μk N + c Δu/h` (c the viscous coefficient). `N` is
+//!   the step's mean constraint force, as every multiplier is.
+//!
+//! `F` acts on the coordinates through the exact secant of `u` (`Σ a_k Δq_k = u_f − u_i`), so
+//! its work over a step is exactly `−F Δu`: zero while sticking, `−(μk N |Δu| + c Δu²/h) ≤ 0`
+//! while slipping in the direction the mode assumed — which the simulation checks before
+//! accepting a step (`simulation/stick_slip.rs`: a step that stops or reverses inside is
+//! shortened to the stop, a sticking joint whose force exceeds μs N breaks away). So friction
+//! never adds energy, and the discrete energy identity closes with its work as one more term.
+//!
+//! The mode lives in the element's history (`State::history`, [`HISTORY_LEN`] slots), like a
+//! beam's path-dependent Gauss-point triads: it belongs to the state a step starts from.
+//! Statics leave friction out (`F = 0`: a static equilibrium with friction is not unique).
+
+use crate::beam::path::ArcMap;
+use crate::elements::{block_structure, decoupled_structure, eval_kernel, Kernel, StepCtx};
+use crate::math::layout::Layout;
+use crate::math::scalar::Real;
+use crate::math::vec3::V3;
+use crate::state::State;
+
+/// History slots: mode (0 stick, ±1 slipping towards ±u), the held slip position (m) while
+/// sticking, and the last step's force ratio |F|/(μs N) while sticking (−1: unknown).
+pub const HISTORY_LEN: usize = 3;
+
+/// Most unknowns of a friction kernel: two coordinates and their jumps, four normal-force
+/// multipliers, its own pair.
+const MAX_UNKNOWNS: usize = 10;
+/// Row-major positions of a block in itself.
+const BLOCK_POSITIONS: [usize; MAX_UNKNOWNS * MAX_UNKNOWNS] = {
+    let mut p = [0; MAX_UNKNOWNS * MAX_UNKNOWNS];
+    let mut i = 0;
+    while i < p.len() {
+        p[i] = i;
+        i += 1;
+    }
+    p
+};
+
+/// An event closer than this fraction of the step to its start is taken at the start.
+pub const MIN_EVENT_FRACTION: f64 = 1e-3;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Mode {
+    /// The joint holds its slip at `hold` (m).
+    Stick { hold: f64 },
+    /// The joint slides towards `direction` (±1) of its slip.
+    Slip { direction: f64 },
+}
+
+/// The friction law's coefficients.
+#[derive(Clone, Copy, Debug)]
+pub struct Coefficients {
+    /// μs, μk (–).
+    pub static_: f64,
+    pub kinetic: f64,
+    /// N·s/m of slip rate, while slipping.
+    pub viscous: f64,
+    /// N, added to the joint's normal force.
+    pub preload: f64,
+}
+
+/// How the slip `u` (m) follows from the joint's coordinates (at most two).
+#[derive(Clone, Debug)]
+pub enum Slip {
+    /// `u = Σ w_k q_k`.
+    Linear { weights: [f64; 2] },
+    /// `u = L η(ζ)`: arc length along a beam's reference line.
+    Arc { map: ArcMap, length: f64 },
+}
+
+impl Slip {
+    fn value<T: Real>(&self, q: [T; 2]) -> T {
+        match self {
+            Slip::Linear { weights } => q[0] * weights[0] + q[1] * weights[1],
+            Slip::Arc { map, length } => {
+                let (e, eta0, slope) = map.piece(q[0].re());
+                (q[0] - e) * (slope * length) + eta0 * length
+            }
+        }
+    }
+
+    /// Coefficients `a` with `Σ a_k (q_f − q_i)_k = u(q_f) − u(q_i)` exactly: the weights, or
+    /// along a beam the mean slope of the piecewise-linear η(ζ) over [ζ_i, ζ_f] (a weighted
+    /// sum of the pieces' slopes, no quotient of differences).
+    fn secant<T: Real>(&self, qi: [f64; 2], qf: [T; 2]) -> [T; 2] {
+        match self {
+            Slip::Linear { weights } => [T::cst(weights[0]), T::cst(weights[1])],
+            Slip::Arc { map, length } => {
+                let (a, b) = (qi[0], qf[0]);
+                let (ea, _, sa) = map.piece(a);
+                let (eb, _, _) = map.piece(b.re());
+                if ea == eb {
+                    return [T::cst(sa * length), T::zero()];
+                }
+                // Pieces between a and b, each weighted by its share of the interval.
+                let (lo, hi, up) = if b.re() > a {
+                    (T::cst(a), b, true)
+                } else {
+                    (b, T::cst(a), false)
+                };
+                let width = hi - lo;
+                let (first, last) = if up { (ea, eb) } else { (eb, ea) };
+                let mut acc = T::zero();
+                let mut start = lo;
+                let mut e = first;
+                while e < last {
+                    let end = T::cst(e + 1.0);
+                    acc += (end - start) / width * map.piece(e + 0.5).2;
+                    start = end;
+                    e += 1.0;
+                }
+                acc += (hi - start) / width * map.piece(last + 0.5).2;
+                [acc * *length, T::zero()]
+            }
+        }
+    }
+
+    /// `du/dq_k` at `q` (piecewise constant along a beam).
+    fn rates(&self, q: [f64; 2]) -> [f64; 2] {
+        match self {
+            Slip::Linear { weights } => *weights,
+            Slip::Arc { map, length } => [map.piece(q[0]).2 * length, 0.0],
+        }
+    }
+}
+
+/// Where the normal force comes from: constraint rows of the joint (global row numbers),
+/// their multipliers being forces (N) or a moment (N·m).
+#[derive(Clone, Debug)]
+pub enum Normal {
+    /// `√(λ_a² + λ_b²)`: forces along two directions normal to the slip (prismatic and
+    /// cylindrical: the separation's projections normal to the axis).
+    Axes { rows: [usize; 2] },
+    /// `|λ| · factor`: a screw thread's row, whose multiplier is the axial load; the thread's
+    /// normal force is `1/(cos α cos β)` times it.
+    Thread { row: usize, factor: f64 },
+    /// `|λ − (λ·t) t|` over three rows whose multipliers are a spatial force: a sliding
+    /// joint's contact force normal to the beam's axis `t` (taken at the step's start).
+    Lateral { row: usize, axis: V3<f64> },
+}
+
+impl Normal {
+    /// The same source with its rows shifted by `row0` (local rows of a joint → global).
+    pub fn offset(&self, row0: usize) -> Normal {
+        match self {
+            Normal::Axes { rows } => Normal::Axes {
+                rows: [rows[0] + row0, rows[1] + row0],
+            },
+            Normal::Thread { row, factor } => Normal::Thread {
+                row: row + row0,
+                factor: *factor,
+            },
+            Normal::Lateral { row, axis } => Normal::Lateral {
+                row: row + row0,
+                axis: *axis,
+            },
+        }
+    }
+
+    fn rows(&self) -> ([usize; 3], usize) {
+        match self {
+            Normal::Axes { rows } => ([rows[0], rows[1], 0], 2),
+            Normal::Thread { row, .. } => ([*row, 0, 0], 1),
+            Normal::Lateral { row, .. } => ([*row, row + 1, row + 2], 3),
+        }
+    }
+}
+
+/// One converged step's friction quantities.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FrictionStep {
+    /// The friction force on the slip (N; it acts as −F on u), and the normal force (N).
+    pub force: f64,
+    pub normal: f64,
+    /// The slip increment Δu (m) and the friction's work `−F Δu` (J, never positive).
+    pub slip: f64,
+    pub work: f64,
+}
+
+/// What a converged step means for a friction's mode.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Verdict {
+    /// The step is consistent with its mode; the next step starts in `next`.
+    Holds { next: Mode, ratio: f64 },
+    /// The mode changes at the step's start: redo the step in this mode.
+    Switch(Mode),
+    /// The mode changes inside the step, at about this fraction of it: redo it that long.
+    Shorten(f64),
+}
+
+/// Friction on one joint: a kernel on the joint's coordinates, the multipliers its normal
+/// force comes from, and its own row.
+#[derive(Clone, Debug)]
+pub struct Friction {
+    /// The joint's name, and its kernel (index in `System::joints`).
+    pub joint: String,
+    pub kernel: usize,
+    pub coefficients: Coefficients,
+    pub slip: Slip,
+    pub normal: Normal,
+    /// A moment row adding `|λ|/r` to the normal force (a sliding screw's twist row), with 1/r.
+    pub moment: Option<(usize, f64)>,
+    /// The friction force's own constraint row, and its history offset.
+    pub row: usize,
+    pub history: usize,
+    /// Whether the joint can stick: not when its slip is prescribed (a drive, or a mechanism
+    /// that moves it), which a stick row would over-constrain.
+    pub can_stick: bool,
+    /// N: smoothing of the normal force's norm at zero, and the force below which a sticking
+    /// joint with no normal force still holds.
+    pub force_floor: f64,
+    coords: [usize; 2],
+    n_coords: usize,
+    n_normal: usize,
+    per: usize,
+    unknowns: Vec<usize>,
+}
+
+impl Friction {
+    /// A friction on coordinates `coords` (one or two), its own row `row`, its history at
+    /// `history`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        joint: String,
+        coefficients: Coefficients,
+        slip: Slip,
+        coords: &[usize],
+        normal: Normal,
+        moment: Option<(usize, f64)>,
+        row: usize,
+        history: usize,
+        layout: &Layout,
+    ) -> Friction {
+        let per = if layout.ed() { 2 } else { 1 };
+        let mut unknowns = Vec::new();
+        for &c in coords {
+            unknowns.push(layout.coord_delta(c));
+            if layout.ed() {
+                unknowns.push(layout.coord_jump(c));
+            }
+        }
+        let (rows, n_rows) = normal.rows();
+        let mut n_normal = n_rows;
+        unknowns.extend(rows[..n_rows].iter().map(|&r| layout.mult(r)));
+        if let Some((r, _)) = moment {
+            unknowns.push(layout.mult(r));
+            n_normal += 1;
+        }
+        unknowns.push(layout.mult(row));
+        if layout.ed() {
+            unknowns.push(layout.mult_jump(row));
+        }
+        let mut cs = [0; 2];
+        cs[..coords.len()].copy_from_slice(coords);
+        Friction {
+            joint,
+            kernel: 0,
+            coefficients,
+            slip,
+            normal,
+            moment,
+            row,
+            history,
+            can_stick: true,
+            force_floor: 1e-9,
+            coords: cs,
+            n_coords: coords.len(),
+            n_normal,
+            per,
+            unknowns,
+        }
+    }
+
+    /// A sliding joint's friction: the beam's axis at the contact point, normal to which the
+    /// contact force presses (set before each step).
+    pub fn set_axis(&mut self, t: V3<f64>) {
+        if let Normal::Lateral { axis, .. } = &mut self.normal {
+            *axis = t;
+        }
+    }
+
+    /// The joint coordinates the slip depends on.
+    pub fn coords(&self) -> &[usize] {
+        &self.coords[..self.n_coords]
+    }
+
+    fn own(&self) -> usize {
+        self.n_coords * self.per + self.n_normal
+    }
+
+    /// The coordinates at a state (unused second slot 0).
+    fn coords_at(&self, s: &State) -> [f64; 2] {
+        let mut q = [0.0; 2];
+        for (k, &c) in self.coords().iter().enumerate() {
+            q[k] = s.coords[c];
+        }
+        q
+    }
+
+    /// The slip `u` (m) at a state, and its rate (m/s).
+    pub fn slip_at(&self, s: &State) -> (f64, f64) {
+        let q = self.coords_at(s);
+        let b = self.slip.rates(q);
+        let rate = self
+            .coords()
+            .iter()
+            .enumerate()
+            .map(|(k, &c)| b[k] * s.coord_rates[c])
+            .sum();
+        (self.slip.value(q), rate)
+    }
+
+    /// The stick row's gradient at a state: `du/dq_k` over [`coords`](Self::coords) (with the
+    /// slip there).
+    pub fn stick_gradient(&self, s: &State) -> (f64, [f64; 2]) {
+        let q = self.coords_at(s);
+        (self.slip.value(q), self.slip.rates(q))
+    }
+
+    /// The mode a step from `s` takes.
+    pub fn mode(&self, s: &State) -> Mode {
+        let h = &s.history[self.history..self.history + HISTORY_LEN];
+        if h[0] == 0.0 {
+            Mode::Stick { hold: h[1] }
+        } else {
+            Mode::Slip { direction: h[0] }
+        }
+    }
+
+    /// The last sticking step's force ratio |F|/(μs N), if known.
+    fn last_ratio(&self, s: &State) -> Option<f64> {
+        let r = s.history[self.history + 2];
+        (r >= 0.0).then_some(r)
+    }
+
+    /// Writes the mode a step from `s` takes (and the ratio it leaves, −1 if none).
+    pub fn set_mode(&self, s: &mut State, mode: Mode, ratio: f64) {
+        let h = &mut s.history[self.history..self.history + HISTORY_LEN];
+        match mode {
+            Mode::Stick { hold } => {
+                h[0] = 0.0;
+                h[1] = hold;
+            }
+            Mode::Slip { direction } => {
+                h[0] = direction.signum();
+                h[1] = 0.0;
+            }
+        }
+        h[2] = ratio;
+    }
+
+    /// The mode a run starts in: sliding if the slip already moves (or cannot stick), else
+    /// stuck where it is.
+    pub fn initial_mode(&self, s: &State, rest_rate: f64) -> Mode {
+        let (u, rate) = self.slip_at(s);
+        if rate.abs() > rest_rate || !self.can_stick {
+            let direction = if rate < 0.0 { -1.0 } else { 1.0 };
+            Mode::Slip { direction }
+        } else {
+            Mode::Stick { hold: u }
+        }
+    }
+
+    /// The normal force (N) from the local block.
+    fn normal_force<T: Real>(&self, ctx: &StepCtx, y: &[T]) -> T {
+        let base = self.n_coords * self.per;
+        let l = |k: usize| y[base + k] * ctx.s;
+        let eps = self.force_floor;
+        let norm = |sq: T| (sq + eps * eps).sqrt() - eps;
+        let mut n = match &self.normal {
+            Normal::Axes { .. } => norm(l(0) * l(0) + l(1) * l(1)),
+            Normal::Thread { factor, .. } => norm(l(0) * l(0)) * *factor,
+            Normal::Lateral { axis, .. } => {
+                let f = V3([l(0), l(1), l(2)]);
+                let t = V3([T::cst(axis.0[0]), T::cst(axis.0[1]), T::cst(axis.0[2])]);
+                let along = f.dot(&t);
+                norm(f.dot(&f) - along * along)
+            }
+        };
+        if let Some((_, inv_r)) = self.moment {
+            let m = l(self.n_normal - 1);
+            n += norm(m * m) * inv_r;
+        }
+        n + self.coefficients.preload
+    }
+
+    /// Coordinates at the start, and increments and end values over the block.
+    fn increments<T: Real>(&self, ctx: &StepCtx, y: &[T]) -> ([f64; 2], [T; 2], [T; 2]) {
+        let qi = self.coords_at(ctx.state);
+        let mut dq = [T::zero(); 2];
+        let mut qf = [T::zero(); 2];
+        for k in 0..self.n_coords {
+            dq[k] = y[k * self.per];
+            qf[k] = dq[k] + qi[k];
+        }
+        (qi, dq, qf)
+    }
+
+    /// ED's velocity-level multiplier on the coordinates and the stick row's j-condition,
+    /// as a drive's with a constant target (see `elements::coordinate::CoordinateDrive`).
+    fn rate_rows<T: Real>(&self, ctx: &StepCtx, y: &[T], r: &mut [T], stick: bool) {
+        let (qi, dq, qf) = self.increments(ctx, y);
+        let qf_re = [qf[0].re(), qf[1].re()];
+        let (bi, bf) = (self.slip.rates(qi), self.slip.rates(qf_re));
+        let own = self.own();
+        let md = y[own + 1] * ctx.s;
+        let (mut ci, mut cf) = (T::zero(), T::zero());
+        for k in 0..self.n_coords {
+            r[k * 2] += md * ((bf[k] - bi[k]) / 12.0);
+            r[k * 2 + 1] -= md * ((bi[k] + bf[k]) / 12.0);
+            let rate_j = y[k * 2 + 1] / ctx.h;
+            let rate_f = dq[k] * (2.0 / ctx.h) - rate_j;
+            ci += rate_j * bi[k];
+            cf += rate_f * bf[k];
+        }
+        if stick {
+            r[own + 1] += (ci - cf) * (ctx.s * ctx.h);
+        } else {
+            // No velocity condition while slipping: λ_d = 0, written so that ED's decoupled
+            // iteration solves it exactly (`integrator::ed_decoupled`).
+            r[own + 1] -= md;
+        }
+    }
+
+    /// The step's friction quantities from the converged unknowns `y` (global).
+    pub fn step(&self, ctx: &StepCtx, y: &[f64]) -> FrictionStep {
+        let mut local = [0.0; MAX_UNKNOWNS];
+        for (l, &g) in local.iter_mut().zip(&self.unknowns) {
+            *l = y[g];
+        }
+        let (qi, dq, qf) = self.increments(ctx, &local);
+        let a = self.slip.secant(qi, qf);
+        let slip: f64 = (0..self.n_coords).map(|k| a[k] * dq[k]).sum();
+        let force = local[self.own()] * ctx.s;
+        let normal = if ctx.is_static() {
+            0.0
+        } else {
+            self.normal_force(ctx, &local)
+        };
+        FrictionStep {
+            force,
+            normal,
+            slip,
+            work: -force * slip,
+        }
+    }
+
+    /// What the converged step from `start` to `end` means for the mode (see [`Verdict`]).
+    pub fn verdict(&self, start: &State, end: &State, step: &FrictionStep) -> Verdict {
+        match self.mode(start) {
+            Mode::Stick { hold } => self.stick_verdict(start, step, hold),
+            Mode::Slip { direction } => self.slip_verdict(start, end, step, direction),
+        }
+    }
+
+    /// The mode after an event of this step placed at its start: a sticking joint breaks
+    /// away against its force, a slipping one sticks where it was (or slides back when it
+    /// cannot stick).
+    pub fn after_event(&self, start: &State, step: &FrictionStep) -> Mode {
+        match self.mode(start) {
+            Mode::Stick { .. } => Mode::Slip {
+                direction: if step.force < 0.0 { -1.0 } else { 1.0 },
+            },
+            Mode::Slip { direction } if !self.can_stick => Mode::Slip {
+                direction: -direction,
+            },
+            Mode::Slip { .. } => Mode::Stick {
+                hold: self.slip_at(start).0,
+            },
+        }
+    }
+
+    fn stick_verdict(&self, start: &State, step: &FrictionStep, hold: f64) -> Verdict {
+        let limit = self.coefficients.static_ * step.normal;
+        let ratio = if limit > 0.0 {
+            step.force.abs() / limit
+        } else {
+            0.0
+        };
+        if step.force.abs() <= limit * (1.0 + 1e-9) + self.force_floor {
+            return Verdict::Holds {
+                next: Mode::Stick { hold },
+                ratio,
+            };
+        }
+        // It breaks away towards the slip the stick force was resisting, at the crossing of
+        // the ratio through 1 (linear from the last step's), else at the start.
+        let direction = step.force.signum();
+        let fraction = self
+            .last_ratio(start)
+            .filter(|&r| r < 1.0 && ratio > r)
+            .map_or(0.0, |r| (1.0 - r) / (ratio - r));
+        let slip = Mode::Slip { direction };
+        if fraction >= 0.95 {
+            Verdict::Holds { next: slip, ratio }
+        } else if fraction < MIN_EVENT_FRACTION {
+            Verdict::Switch(slip)
+        } else {
+            Verdict::Shorten(fraction)
+        }
+    }
+
+    fn slip_verdict(&self, start: &State, end: &State, step: &FrictionStep, d: f64) -> Verdict {
+        let (_, rate_i) = self.slip_at(start);
+        let (u_f, rate_f) = self.slip_at(end);
+        let (vi, vf) = (d * rate_i, d * rate_f);
+        let forward = d * step.slip >= 0.0;
+        if forward && vf >= 0.0 {
+            return Verdict::Holds {
+                next: Mode::Slip { direction: d },
+                ratio: -1.0,
+            };
+        }
+        // The slip stopped (or turned) inside the step: stick there, or slide back if it
+        // cannot stick. The stop is where the slip rate, linear over the step, vanishes.
+        let (u_i, _) = self.slip_at(start);
+        let stop = |hold| {
+            if self.can_stick {
+                Mode::Stick { hold }
+            } else {
+                Mode::Slip { direction: -d }
+            }
+        };
+        let fraction = if vi > 0.0 { vi / (vi - vf) } else { 0.0 };
+        if forward && (fraction >= 0.9 || vf.abs() <= 0.1 * vi) {
+            // Stopped at the step's end, to a residual rate the stick's projection removes.
+            Verdict::Holds {
+                next: stop(u_f),
+                ratio: -1.0,
+            }
+        } else if fraction < MIN_EVENT_FRACTION {
+            Verdict::Switch(stop(u_i))
+        } else {
+            Verdict::Shorten(fraction)
+        }
+    }
+}
+
+impl Kernel for Friction {
+    fn unknowns(&self) -> &[usize] {
+        &self.unknowns
+    }
+
+    fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], r: &mut [T]) {
+        let own = self.own();
+        let force = y[own] * ctx.s;
+        if ctx.is_static() {
+            // Statics leave friction out: F = 0.
+            r[own] += force;
+            return;
+        }
+        let (qi, dq, qf) = self.increments(ctx, y);
+        let a = self.slip.secant(qi, qf);
+        for k in 0..self.n_coords {
+            r[k * self.per] += force * a[k];
+        }
+        let stick = match self.mode(ctx.state) {
+            Mode::Stick { hold } => {
+                r[own] += (self.slip.value(qf) - hold) * ctx.s;
+                true
+            }
+            Mode::Slip { direction } => {
+                let c = &self.coefficients;
+                let mut du = T::zero();
+                for k in 0..self.n_coords {
+                    du += a[k] * dq[k];
+                }
+                let kinetic = self.normal_force(ctx, y) * (c.kinetic * direction);
+                r[own] += force - kinetic - du * (c.viscous / ctx.h);
+                false
+            }
+        };
+        if ctx.ed() {
+            self.rate_rows(ctx, y, r, stick);
+        }
+    }
+
+    /// Under ED's decoupled iteration a slipping row writes only its own multipliers'
+    /// entries: its dependence on the normal force and the slip lags by an iteration (the
+    /// complex system cannot represent it), which modified Newton tolerates.
+    fn evaluate_decoupled(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        res: &mut [f64],
+        vals: &mut [f64],
+        pos: &[usize],
+    ) {
+        let n = self.unknowns.len();
+        let mut block = [0.0; MAX_UNKNOWNS * MAX_UNKNOWNS];
+        eval_kernel(
+            self,
+            ctx,
+            y,
+            res,
+            Some((&mut block[..n * n], &BLOCK_POSITIONS[..n * n])),
+        );
+        let own = self.own();
+        let slipping = matches!(self.mode(ctx.state), Mode::Slip { .. });
+        for i in 0..n {
+            for j in 0..n {
+                if slipping && i == own && j != own {
+                    continue;
+                }
+                vals[pos[i * n + j]] += block[i * n + j];
+            }
+        }
+    }
+
+    /// Both modes' entries: the mode changes between steps, the pattern does not.
+    fn structure(&self, ctx: &StepCtx, y: &[f64]) -> Vec<bool> {
+        let mut mask = vec![false; self.unknowns.len().pow(2)];
+        for mode in [Mode::Stick { hold: 0.1 }, Mode::Slip { direction: 1.0 }] {
+            let mut state = ctx.state.clone();
+            self.set_mode(&mut state, mode, -1.0);
+            let c = StepCtx {
+                state: &state,
+                ..*ctx
+            };
+            let mut m = block_structure(self, &c, y);
+            if c.ed() {
+                let d = decoupled_structure(self, &c, y);
+                m.iter_mut().zip(d).for_each(|(a, b)| *a |= b);
+            }
+            mask.iter_mut().zip(m).for_each(|(a, b)| *a |= b);
+        }
+        mask
+    }
+}
