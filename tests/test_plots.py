@@ -24,6 +24,7 @@ EVERY_SENSOR = [
     ("joint_coordinate", "s_coord", {"joint": "shaft"}),
     ("joint_reaction", "s_react", {"joint": "shaft"}),
     ("drive_force", "s_drive", {"joint": "ride"}),
+    ("friction", "s_friction", {"joint": "ride"}),
     ("energy", "s_energy", {}),
     ("beam_section", "s_section", {"beam": "strip", "eta": 0.25}),
     ("beam_energy", "s_beam_energy", {"beam": "strip"}),
@@ -34,6 +35,8 @@ EVERY_SENSOR = [
 @pytest.fixture(scope="module")
 def results(tmp_path_factory):
     m = swinging_sleeve()
+    # The driven sleeve rubs on the strip (its drive pays the friction), for the friction sensor.
+    next(j for j in m.data["joints"] if j["name"] == "ride")["friction"] = {"static": 0.2}
     for kind, name, fields in EVERY_SENSOR:
         m.sensor(kind, name, **fields)
     out = tmp_path_factory.mktemp("plots") / "sleeve.nc"

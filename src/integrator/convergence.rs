@@ -45,8 +45,38 @@ impl Measure {
     /// contribution magnitudes `activity`.
     pub fn of(sys: &System, ctx: &StepCtx, res: &[f64], activity: &[f64]) -> Measure {
         let first_row = ctx.layout.mult(0).min(res.len());
-        let (force, force_row) = inf_norm(&res[..first_row]);
-        let (c_scaled, c_row) = inf_norm(&res[first_row..]);
+        let (mut force, mut force_row) = inf_norm(&res[..first_row]);
+        // Friction rows come last; a slipping one's rows set its force (N), a force row.
+        let first_friction = sys
+            .frictions
+            .first()
+            .map_or(res.len(), |f| ctx.layout.mult(f.row))
+            .max(first_row);
+        let (mut c_scaled, mut c_row) = inf_norm(&res[first_row..first_friction]);
+        c_row += first_row;
+        for f in &sys.frictions {
+            let at = ctx.layout.mult(f.row);
+            let rows = if ctx.layout.ed() {
+                at..at + 2
+            } else {
+                at..at + 1
+            };
+            let slipping = !ctx.is_static()
+                && matches!(
+                    f.mode(ctx.state),
+                    crate::joints::friction::Mode::Slip { .. }
+                );
+            for i in rows {
+                let (norm, row) = if slipping {
+                    (&mut force, &mut force_row)
+                } else {
+                    (&mut c_scaled, &mut c_row)
+                };
+                if res[i].abs() > *norm || res[i].is_nan() {
+                    (*norm, *row) = (res[i].abs(), i);
+                }
+            }
+        }
         let acting = activity[..first_row].iter().fold(0.0f64, |m, a| m.max(*a));
         let weight = sys.mass_ref * sys.gravity.norm();
         let force_scale = acting.max(weight).max(sys.force_ref).max(1e-300);
@@ -59,7 +89,7 @@ impl Measure {
                 .max(1e3 * f64::EPSILON * momentum_per_step(sys, ctx)),
             constraint: c_scaled / ctx.s,
             constraint_scale: force_scale / ctx.s,
-            constraint_row: first_row + c_row,
+            constraint_row: c_row,
             finite: force.is_finite() && c_scaled.is_finite(),
         }
     }

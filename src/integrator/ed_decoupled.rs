@@ -60,8 +60,12 @@ fn coefficient(layout: &Layout, i: usize, j: usize) -> Option<(usize, usize, c64
         // Motion rows, motion columns: J_jX − i(√2/2) J_jΔ.
         (false, false, true, true) => c64::new(1.0, 0.0),
         (false, false, true, false) => c64::new(0.0, -0.5 * SQRT2),
-        // The f-rows' λ columns (sBᵀ), the C rows' Δ columns (sB), and any C-row entry in a
-        // λ column (none in the present constraints).
+        // A row pair that sets its own multipliers — `[[α, 0], [0, −α]]` on (λ, λ_d), a
+        // slipping friction's force — is `(2 − i√2) α` in the complex system; read from its
+        // C-row (the Cj-row's −α is implied).
+        (true, true, false, false) if pi == pj => c64::new(2.0, -SQRT2),
+        (true, true, _, _) => return None,
+        // The f-rows' λ columns (sBᵀ) and the C rows' Δ columns (sB).
         (false, true, false, false) | (true, _, false, false) => c64::new(1.0, 0.0),
         _ => return None,
     };
@@ -158,7 +162,9 @@ mod tests {
     /// the motion pairs and constraint gradient `b`: the decoupled solve is its exact solve.
     #[test]
     fn decoupled_solve_is_the_exact_solve_of_a_linear_system() {
-        let layout = Layout::new(Scheme::Ed, 2, 1, 2);
+        // Rows 0 and 1 are constraints; row 2 a pair that sets its own multipliers (a
+        // slipping friction: `s λ = …`, `−s λ_d = 0`) whose force acts like a constraint's.
+        let layout = Layout::new(Scheme::Ed, 2, 1, 3);
         let n = layout.n_unknowns();
         let nm = 13; // motion pairs: 12 node components and one coordinate (massless)
         let pseudo = |k: usize| ((k as f64 * 12.9898).sin() * 43758.5453).fract();
@@ -174,7 +180,7 @@ mod tests {
                 }
             }
         }
-        let b: Vec<Vec<f64>> = (0..2)
+        let b: Vec<Vec<f64>> = (0..3)
             .map(|r| (0..nm).map(|j| pseudo(500 + 20 * r + j)).collect())
             .collect();
         let all: Vec<usize> = (0..n).collect();
@@ -194,6 +200,11 @@ mod tests {
                 let (lam, lam_d) = layout.unpair(nm + r);
                 set(fa, lam, s * br[a]);
                 set(ja, lam_d, -s * br[a] / 6.0);
+                if r == 2 {
+                    set(lam, lam, s);
+                    set(lam_d, lam_d, -s);
+                    continue;
+                }
                 let (dc, xc) = layout.unpair(a);
                 set(lam, dc, s * br[a]);
                 set(lam_d, dc, -2.0 * s * br[a]);

@@ -380,7 +380,8 @@ impl Friction {
         let base = self.n_coords * self.per;
         let l = |k: usize| y[base + k] * ctx.s;
         let eps = self.force_floor;
-        let norm = |sq: T| (sq + eps * eps).sqrt() - eps;
+        // √(x² + ε²): smooth at zero, off by ε²/2x (nothing) where there is a force.
+        let norm = |sq: T| (sq + eps * eps).sqrt();
         let mut n = match &self.normal {
             Normal::Axes { .. } => norm(l(0) * l(0) + l(1) * l(1)),
             Normal::Thread { factor, .. } => norm(l(0) * l(0)) * *factor,
@@ -639,5 +640,199 @@ impl Kernel for Friction {
             mask.iter_mut().zip(m).for_each(|(a, b)| *a |= b);
         }
         mask
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::elements::fd_harness::tangent_error;
+    use crate::math::layout::Scheme;
+
+    /// Two coordinates, a joint of five rows (normal force from rows 1–3, a moment row 4),
+    /// the friction's own row 5.
+    fn state() -> State {
+        State {
+            t: 0.3,
+            nodes: vec![],
+            coords: vec![1.37, 0.4],
+            coord_rates: vec![0.8, -0.3],
+            lambda: vec![0.0; 6],
+            history: vec![1.0, 0.0, -1.0],
+        }
+    }
+
+    fn frictions(layout: &Layout) -> Vec<Friction> {
+        let c = Coefficients {
+            static_: 0.4,
+            kinetic: 0.3,
+            viscous: 2.0,
+            preload: 1.5,
+        };
+        let thread = Friction::new(
+            "screw".into(),
+            c,
+            Slip::Linear {
+                weights: [0.08, 0.01],
+            },
+            &[0, 1],
+            Normal::Thread {
+                row: 1,
+                factor: 1.003,
+            },
+            None,
+            5,
+            0,
+            layout,
+        );
+        let axes = Friction::new(
+            "prismatic".into(),
+            c,
+            Slip::Linear {
+                weights: [1.0, 0.0],
+            },
+            &[0],
+            Normal::Axes { rows: [1, 2] },
+            None,
+            5,
+            0,
+            layout,
+        );
+        // Along a beam of unequal elements; ζ_i = 1.37 and the step crosses into element 2.
+        let spans = [(0.0, 0.3), (0.3, 0.8), (0.8, 1.0)];
+        let arc = Friction::new(
+            "sliding".into(),
+            c,
+            Slip::Arc {
+                map: ArcMap::new(&spans, 1.0),
+                length: 2.5,
+            },
+            &[0],
+            Normal::Lateral {
+                row: 1,
+                axis: V3([0.6, 0.8, 0.0]),
+            },
+            Some((4, 1.0 / 0.02)),
+            5,
+            0,
+            layout,
+        );
+        vec![thread, axes, arc]
+    }
+
+    #[test]
+    fn tangents_match_finite_differences_in_both_modes_and_schemes() {
+        for (scheme, statics) in [
+            (Scheme::Ep, None),
+            (Scheme::Ed, None),
+            (Scheme::Ep, Some(0.6)),
+        ] {
+            let layout = Layout::new(scheme, 0, 2, 6);
+            for mode in [Mode::Stick { hold: 0.1 }, Mode::Slip { direction: -1.0 }] {
+                for f in frictions(&layout) {
+                    let mut st = state();
+                    f.set_mode(&mut st, mode, -1.0);
+                    let ctx = StepCtx {
+                        layout,
+                        h: 0.02,
+                        t_i: 0.3,
+                        t_f: 0.32,
+                        s: 50.0,
+                        state: &st,
+                        gravity: V3([0.0; 3]),
+                        statics,
+                    };
+                    let y: Vec<f64> = (0..layout.n_unknowns())
+                        .map(|i| 0.31 + 0.07 * (i as f64).sin())
+                        .collect();
+                    let e = tangent_error(&f, &ctx, &y);
+                    assert!(e < 1e-7, "{} {scheme:?} {statics:?} {mode:?}: {e}", f.joint);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_force_does_work_minus_f_times_the_exact_slip() {
+        // Σ a_k Δq_k is u(q_f) − u(q_i) exactly, across element boundaries too: the work of
+        // the friction force is −F Δu, what the energy identity books.
+        let layout = Layout::new(Scheme::Ep, 0, 2, 6);
+        for f in frictions(&layout) {
+            for (qf0, qf1) in [(1.37, 0.4), (1.9, 0.1), (0.2, 0.45), (3.4, -0.2)] {
+                let qi = [1.37, 0.4];
+                let a = f.slip.secant(qi, [qf0, qf1]);
+                let n = f.coords().len();
+                let du: f64 = (0..n).map(|k| a[k] * ([qf0, qf1][k] - qi[k])).sum();
+                let exact = f.slip.value([qf0, qf1]) - f.slip.value(qi);
+                assert!(
+                    (du - exact).abs() < 1e-14 * (1.0 + exact.abs()),
+                    "{}",
+                    f.joint
+                );
+            }
+        }
+    }
+
+    fn step(force: f64, normal: f64, slip: f64) -> FrictionStep {
+        FrictionStep {
+            force,
+            normal,
+            slip,
+            work: -force * slip,
+        }
+    }
+
+    #[test]
+    fn verdicts_hold_break_away_and_stop() {
+        let layout = Layout::new(Scheme::Ep, 0, 2, 6);
+        let f = &frictions(&layout)[1];
+        let mut start = state();
+        f.set_mode(&mut start, Mode::Stick { hold: 1.37 }, 0.5);
+        let end = start.clone();
+        // μs N = 0.4 × 10: 3.9 N holds, 4.1 N breaks away (towards +u, the slip it resisted)
+        // where the ratio, 0.5 at the last step, crossed 1.
+        assert!(matches!(
+            f.verdict(&start, &end, &step(3.9, 10.0, 0.0)),
+            Verdict::Holds {
+                next: Mode::Stick { .. },
+                ..
+            }
+        ));
+        match f.verdict(&start, &end, &step(6.0, 10.0, 0.0)) {
+            Verdict::Shorten(x) => assert!((x - 0.5 / 1.0).abs() < 1e-12, "{x}"),
+            v => panic!("{v:?}"),
+        }
+        f.set_mode(&mut start, Mode::Stick { hold: 1.37 }, -1.0);
+        assert_eq!(
+            f.verdict(&start, &end, &step(-6.0, 10.0, 0.0)),
+            Verdict::Switch(Mode::Slip { direction: -1.0 })
+        );
+        // Slipping towards +u at 0.8 m/s; ending at −0.8 m/s it stopped half-way.
+        f.set_mode(&mut start, Mode::Slip { direction: 1.0 }, -1.0);
+        let mut end = start.clone();
+        end.coord_rates[0] = -0.8;
+        assert_eq!(
+            f.verdict(&start, &end, &step(3.0, 10.0, 1e-3)),
+            Verdict::Shorten(0.5)
+        );
+        // Ending nearly at rest: it sticks there, from the end state's slip.
+        end.coord_rates[0] = -0.01;
+        end.coords[0] = 1.38;
+        assert_eq!(
+            f.verdict(&start, &end, &step(3.0, 10.0, 1e-2)),
+            Verdict::Holds {
+                next: Mode::Stick { hold: 1.38 },
+                ratio: -1.0
+            }
+        );
+        // Still sliding: nothing happens.
+        end.coord_rates[0] = 0.5;
+        assert!(matches!(
+            f.verdict(&start, &end, &step(3.0, 10.0, 1e-2)),
+            Verdict::Holds {
+                next: Mode::Slip { direction } ,
+                ..
+            } if direction == 1.0
+        ));
     }
 }

@@ -89,11 +89,6 @@ impl Simulation {
         for _ in 0..MAX_EVENT_RETRIES {
             self.orient_frictions(h);
             let (mut end, report) = self.integrator.step(&self.system, &self.state, h)?;
-            if std::env::var("FLEXDYN_DEBUG_FRICTION").is_ok() {
-                for (k, f) in self.system.frictions.iter().enumerate() {
-                    eprintln!("t={:.9} h={h:.3e} mode={:?} rate_i={:.3e} rate_f={:.3e} step={:?} verdict={:?}", self.state.t, f.mode(&self.state), f.slip_at(&self.state).1, f.slip_at(&end).1, report.frictions[k], f.verdict(&self.state, &end, &report.frictions[k]));
-                }
-            }
             match self.judge(&end, &report, h, floor) {
                 Judged::Accept { changed } => {
                     let mut report = report;
