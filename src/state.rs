@@ -28,8 +28,8 @@ pub struct State {
     pub coord_rates: Vec<f64>,
     /// Constraint forces per constraint row (unscaled multipliers of the last step).
     pub lambda: Vec<f64>,
-    /// Path-dependent element history (beam Gauss points: triad and curvature), flat; each
-    /// element knows its offset. Committed at the end of every step, never at the j-state.
+    /// Path-dependent element history (beam Gauss points: triad and curvature; frictions:
+    /// stick or slip, see `joints::friction`), flat; each element knows its offset. Committed at the end of every step, never at the j-state.
     pub history: Vec<f64>,
 }
 
