@@ -78,6 +78,17 @@ fn set_velocities(state: &mut State, a: usize, (v, w): (V3<f64>, V3<f64>), l: f6
 /// at `state`: a step's end velocities satisfy them only to the scheme's accuracy (its
 /// positions satisfy the constraints exactly), and a solve at that instant needs them exact.
 pub fn project_velocities(sys: &System, state: &mut State) {
+    project_velocities_with(sys, state, |_, _, _| {});
+}
+
+/// [`project_velocities`] with the right-hand side `adjust`ed first (e.g. rows that are to
+/// keep their present values); false if there was nothing to project or the matrix is
+/// singular.
+pub fn project_velocities_with(
+    sys: &System,
+    state: &mut State,
+    adjust: impl FnOnce(&VelocityProjection, &State, &mut [f64]),
+) -> bool {
     let none = vec![false; sys.layout.n_nodes];
     let w = Weighting {
         fixed: &none,
@@ -85,15 +96,18 @@ pub fn project_velocities(sys: &System, state: &mut State) {
         beams: false,
     };
     let Some(mut p) = VelocityProjection::new(sys, state, &w) else {
-        return;
+        return false;
     };
-    let x = p.solve(&p.rhs(sys, state, state.t));
+    let mut rhs = p.rhs(sys, state, state.t);
+    adjust(&p, state, &mut rhs);
+    let x = p.solve(&rhs);
     for (a, nd) in state.nodes.iter_mut().enumerate() {
         (nd.v, nd.w) = p.node(&x, a);
     }
     for c in 0..p.lay.n_coords {
         state.coord_rates[c] = x[p.lay.coord_delta(c)];
     }
+    true
 }
 
 /// Moves `state`'s positions onto the constraints (drives at their values at `state.t`) by

@@ -88,11 +88,14 @@ impl Simulation {
         let floor = self.settings.dt_min().max(MIN_EVENT_FRACTION * h);
         for _ in 0..MAX_EVENT_RETRIES {
             self.orient_frictions(h);
-            let (mut end, report) = self.integrator.step(&self.system, &self.state, h)?;
+            let (mut end, mut report) = self.integrator.step(&self.system, &self.state, h)?;
             match self.judge(&end, &report, h, floor) {
-                Judged::Accept { changed } => {
-                    let mut report = report;
-                    self.write_next_modes(&mut end, &report);
+                Judged::Accept(next_modes) => {
+                    let mut changed = false;
+                    for (f, (next, ratio)) in self.system.frictions.iter().zip(next_modes) {
+                        changed |= next != f.mode(&self.state);
+                        f.set_mode(&mut end, next, ratio);
+                    }
                     self.settle_stops(&mut end, &mut report);
                     return Ok(FrictionStep {
                         state: end,
@@ -125,10 +128,10 @@ impl Simulation {
     fn judge(&self, end: &State, report: &StepReport, h: f64, floor: f64) -> Judged {
         let mut switches = Vec::new();
         let mut shortest: Option<f64> = None;
-        let mut changed = false;
+        let mut next_modes = Vec::with_capacity(self.system.frictions.len());
         for (k, f) in self.system.frictions.iter().enumerate() {
             match f.verdict(&self.state, end, &report.frictions[k]) {
-                Verdict::Holds { next, .. } => changed |= next != f.mode(&self.state),
+                Verdict::Holds { next, ratio } => next_modes.push((next, ratio)),
                 Verdict::Switch(mode) => switches.push((k, mode)),
                 // An event the shortest step allowed cannot place is taken at the start.
                 Verdict::Shorten(_) if h <= floor * (1.0 + 1e-9) => {
@@ -142,18 +145,7 @@ impl Simulation {
         } else if let Some(x) = shortest {
             Judged::Shorten(x)
         } else {
-            Judged::Accept { changed }
-        }
-    }
-
-    /// Writes each friction's mode for the step after `end` into its history.
-    fn write_next_modes(&self, end: &mut State, report: &StepReport) {
-        for (k, f) in self.system.frictions.iter().enumerate() {
-            if let Verdict::Holds { next, ratio } =
-                f.verdict(&self.state, end, &report.frictions[k])
-            {
-                f.set_mode(end, next, ratio);
-            }
+            Judged::Accept(next_modes)
         }
     }
 }
@@ -185,32 +177,16 @@ impl Simulation {
 /// Projects `state`'s velocities so that friction row `row` holds (its slip rate zero), the
 /// other rows keeping their present values; false if the projection is singular.
 fn project_onto_stick(sys: &System, state: &mut State, row: usize) -> bool {
-    use super::velocity_projection::{VelocityProjection, Weighting};
-    let none = vec![false; sys.layout.n_nodes];
-    let w = Weighting {
-        fixed: &none,
-        follow: &none,
-        beams: false,
-    };
-    let Some(mut p) = VelocityProjection::new(sys, state, &w) else {
-        return false;
-    };
-    let mut rhs = p.rhs(sys, state, state.t);
-    for (r, v) in p.rows_at(state).into_iter().enumerate() {
-        rhs[p.lay.mult(r)] = if r == row { 0.0 } else { v };
-    }
-    let x = p.solve(&rhs);
-    for (a, nd) in state.nodes.iter_mut().enumerate() {
-        (nd.v, nd.w) = p.node(&x, a);
-    }
-    for c in 0..p.lay.n_coords {
-        state.coord_rates[c] = x[p.lay.coord_delta(c)];
-    }
-    true
+    super::initial_velocities::project_velocities_with(sys, state, |p, state, rhs| {
+        for (r, v) in p.rows_at(state).into_iter().enumerate() {
+            rhs[p.lay.mult(r)] = if r == row { 0.0 } else { v };
+        }
+    })
 }
 
 enum Judged {
-    Accept { changed: bool },
+    /// Each friction's mode for the next step, and its force ratio.
+    Accept(Vec<(Mode, f64)>),
     Switch(Vec<(usize, Mode)>),
     Shorten(f64),
 }
