@@ -46,8 +46,15 @@ ETA = "0.5 - 0.25*cos(2*pi*t)"  # case 1: contact point along the beam
 DELTA = "0.6*(1 - cos(2*pi*t))"  # case 2: slide of the driver's top from s = 0.6 m, m
 
 
-def beam_slider(case: int, twisted: bool = False, elements: int = 12, t_end: float | None = None):
-    """The beam slider of section 7.1 (or 7.2 when `twisted`), case 1 or 2."""
+def beam_slider(
+    case: int,
+    twisted: bool = False,
+    elements: int = 12,
+    t_end: float | None = None,
+    friction: dict | None = None,
+):
+    """The beam slider of section 7.1 (or 7.2 when `twisted`), case 1 or 2; `friction` (e.g.
+    `{"static": 0.2}`) on the slide (not in the paper: see friction.py)."""
     title = f"{'twisted ' if twisted else ''}beam slider, case {case}"
     m = fd.Model(title)
     m.node("tip", [2.4, 0, 0]).body("tip_body", "tip", mass=40.0, inertia=[0.45, 0.225, 0.225])
@@ -59,7 +66,7 @@ def beam_slider(case: int, twisted: bool = False, elements: int = 12, t_end: flo
     top = "driver.9"
     if case == 1:
         slide = m.sliding_screw if twisted else m.sliding
-        slide("slide", "beam", top, eta=fd.drive(ETA))
+        slide("slide", "beam", top, eta=fd.drive(ETA), friction=friction)
         m.sensor("joint_coordinate", "eta", joint="slide", component="eta")
         m.sensor("drive_force", "drive_force", joint="slide", component="force")  # N along the beam
         m.sensor("drive_force", "drive_force_eta", joint="slide", component="force_eta")  # N per unit η
@@ -68,15 +75,19 @@ def beam_slider(case: int, twisted: bool = False, elements: int = 12, t_end: flo
         b = f"beam.{elements * 3 // 4}"  # s = 0.6 m (a quarter of the beam: a node of the mesh)
         m.node("sleeve", [0.6, 0, 0])
         if twisted:
-            m.screw("slide", b, "sleeve", axis=[1, 0, 0], pitch=1 / TWIST, drive_delta=DELTA)
+            m.screw(
+                "slide", b, "sleeve", axis=[1, 0, 0], pitch=1 / TWIST, drive_delta=DELTA, friction=friction
+            )
             # Cross axes i2 (sleeve) and i3 (driver): the rotation about the beam axis i1 is
             # transmitted, "the sole relative rotation of the screw joint".
             m.universal("link", "sleeve", top, axis1=[0, 1, 0], axis2=[0, 0, 1])
         else:
-            m.prismatic("slide", b, "sleeve", axis=[1, 0, 0], drive=DELTA)
+            m.prismatic("slide", b, "sleeve", axis=[1, 0, 0], drive=DELTA, friction=friction)
             m.revolute("link", "sleeve", top, axis=[0, 0, 1])
         m.sensor("joint_coordinate", "delta", joint="slide", component="delta")
         m.sensor("drive_force", "drive_force", joint="slide", component="force")  # N along the beam
+    if friction is not None:
+        m.sensor("friction", "friction", joint="slide")
     for comp, name in (("uy", "u2"), ("uz", "u3"), ("phi1", "phi1"), ("phi3", "phi3")):
         m.sensor("beam_section", f"beam_tip_{name}", beam="beam", eta=1.0, component=comp)
     for comp in ("F1", "F3", "M1", "M3"):
