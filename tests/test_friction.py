@@ -327,3 +327,14 @@ def test_statics_leave_friction_out_and_say_so():
     res = fd.solve_static(m)
     assert "friction of `rail` is left out of this static analysis" in res.attrs["warnings"]
     assert res["f.force"].values[-1] == 0.0
+
+
+@pytest.mark.parametrize("method", ["dense", "sparse"])
+def test_modes_leave_friction_out(method):
+    # A 2 kg block on a sprung rail with friction: the modal analysis is the frictionless one,
+    # ω = √(k/m) along the rail (the friction's row is dropped from the linearization).
+    m = fd.Model("sprung block")
+    m.node("b", [0, 0, 0]).body("block", "b", mass=2.0, inertia=[0.01, 0.02, 0.03])
+    m.prismatic("rail", "ground", "b", axis=[1, 0, 0], spring={"stiffness": 800.0}, friction={"static": 0.3})
+    res = fd.modes(m, count=1, method=method)
+    np.testing.assert_allclose(res["omega"].values[0], 20.0, rtol=1e-9)
