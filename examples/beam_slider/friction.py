@@ -13,17 +13,25 @@ docs/figures/beam_slider_friction.png.
 from __future__ import annotations
 
 import argparse
-import sys
+import importlib.util
 from pathlib import Path
 
 import numpy as np
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
-
-from build import beam_slider
-
 import flexdyn as fd
+
+HERE = Path(__file__).resolve().parent
+
+
+def _load_build():
+    """This folder's build.py, by path (another example's `build` may be imported already)."""
+    spec = importlib.util.spec_from_file_location("beam_slider_build", HERE / "build.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+beam_slider = _load_build().beam_slider
 
 
 def run(mu: float, out: Path, t_end: float = 2.0):
