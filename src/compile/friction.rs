@@ -5,7 +5,7 @@
 
 use super::rows::RowTable;
 use crate::beam::path::ArcMap;
-use crate::joints::friction::{Coefficients, Normal, Slip};
+use crate::joints::friction::{Coefficients, Normal, Slip, Thread};
 use crate::math::vec3::V3;
 use crate::model::check::Checker;
 use crate::model::{Friction, Joint};
@@ -24,31 +24,41 @@ pub fn check(j: &Joint, c: &mut Checker, p: &str) {
     }
     c.non_negative(format!("{p}.viscous"), f.viscous, &who);
     c.non_negative(format!("{p}.preload"), f.preload, &who);
-    let screw = matches!(j, Joint::Screw(_));
+    check_thread(j, f, c, &p, &who);
+}
+
+/// The thread's fields: `radius` where a thread needs it (screws, sliding joints with a
+/// `lead`; a sliding screw's twisting moment), `lead` on sliding joints, `thread_angle` on
+/// threads.
+fn check_thread(j: &Joint, f: &Friction, c: &mut Checker, p: &str, who: &str) {
+    let threaded = matches!(j, Joint::Screw(_)) || f.lead.is_some();
     match f.radius {
         Some(r) if !(r.is_finite() && r > 0.0) => {
-            c.err(
-                format!("{p}.radius"),
-                format!("{who}: must be > 0 m (got {r})"),
-            );
+            c.err(format!("{p}.radius"), format!("{who}: must be > 0 m (got {r})"));
         }
-        Some(_) if !screw && !matches!(j, Joint::SlidingScrew(_)) => {
-            c.err(format!("{p}.radius"), format!("{who}: `radius` is for screw and sliding screw joints (the thread's radius); remove it"));
-        }
-        None if screw => c.err(
+        Some(_) if !threaded && !matches!(j, Joint::SlidingScrew(_)) => c.err(
             format!("{p}.radius"),
-            format!(
-                "{who}: a screw's friction acts on its thread: give the thread's mean `radius` (m)"
-            ),
+            format!("{who}: `radius` is for threads (screw joints, sliding joints with a `lead`) and sliding screw joints; remove it"),
+        ),
+        None if threaded => c.err(
+            format!("{p}.radius"),
+            format!("{who}: the friction acts on a thread: give the thread's mean `radius` (m)"),
         ),
         _ => {}
     }
-    if let Some(b) = f.thread_angle {
-        if !screw {
+    if let Some(lead) = f.lead {
+        if j.sliding().is_none() {
+            c.err(format!("{p}.lead"), format!("{who}: `lead` is for sliding joints (a screw joint's lead is its pitch); remove it"));
+        } else if !(lead.is_finite() && lead > 0.0) {
             c.err(
-                format!("{p}.thread_angle"),
-                format!("{who}: `thread_angle` is for screw joints; remove it"),
+                format!("{p}.lead"),
+                format!("{who}: must be > 0 m per turn (got {lead})"),
             );
+        }
+    }
+    if let Some(b) = f.thread_angle {
+        if !threaded {
+            c.err(format!("{p}.thread_angle"), format!("{who}: `thread_angle` is for threads (screw joints, sliding joints with a `lead`); remove it"));
         } else if !(b.is_finite() && (0.0..1.4).contains(&b)) {
             c.err(format!("{p}.thread_angle"), format!("{who}: the thread's half-angle must be in [0, 1.4) rad (got {b}; 0.5236 for ISO metric threads)"));
         }
@@ -110,12 +120,21 @@ pub fn sliding(
     rows: &mut RowTable,
 ) {
     // Rows 0–2 are the contact force (spatial); a sliding screw's row 3 its twisting moment.
+    let thread = f.lead.map(|lead| {
+        let alpha = (lead / (2.0 * std::f64::consts::PI * f.radius.expect("checked"))).atan();
+        Thread {
+            sin_lead: alpha.sin(),
+            cos_lead: alpha.cos(),
+            cos_flank: f.thread_angle.unwrap_or(0.0).cos(),
+        }
+    });
     let normal = Normal::Lateral {
         row: 0,
         axis: V3([1.0, 0.0, 0.0]),
+        thread,
     };
-    let moment = match (j, f.radius) {
-        (Joint::SlidingScrew(_), Some(r)) => Some((3, 1.0 / r)),
+    let moment = match (j, f.radius, f.lead) {
+        (Joint::SlidingScrew(_), Some(r), None) => Some((3, 1.0 / r)),
         _ => None,
     };
     let slip = Slip::Arc { map, length };

@@ -149,8 +149,29 @@ pub enum Normal {
     /// normal force is `1/(cos α cos β)` times it.
     Thread { row: usize, factor: f64 },
     /// `|λ − (λ·t) t|` over three rows whose multipliers are a spatial force: a sliding
-    /// joint's contact force normal to the beam's axis `t` (taken at the step's start).
-    Lateral { row: usize, axis: V3<f64> },
+    /// joint's contact force normal to the beam's axis `t` (predicted at the step's middle);
+    /// with a `thread`, plus the thread's share from the axial load (see [`Thread`]).
+    Lateral {
+        row: usize,
+        axis: V3<f64>,
+        thread: Option<Thread>,
+    },
+}
+
+/// A thread between a sliding joint's follower and the beam (a nut on a jackscrew whose turn
+/// the slide's drive stands for): lead angle α at the thread's radius, flank half-angle β.
+/// With the axial force on the follower `A = −λ·t` and the friction force F on the slip, the
+/// flank's normal force is `N_s = (A + F sin²α)/cos α` (the thread force's axial part is
+/// `N_s cos α − f sin α`, its friction `f = F sin α` — the slip along the helix is `ds/sin α`),
+/// and friction acts on the slip as `μ N_s/(sin α cos β)`: the normal force's share is
+/// `|λ·t − F sin²α|/(cos α sin α cos β)`. A thread holding its load without a drive needs
+/// `μs ≥ tan α cos β` (self-locking), exactly; a drive raising a load P at constant speed
+/// pays `P tan(α + φ)/tan α` (φ = atan μ), a screw's efficiency.
+#[derive(Clone, Copy, Debug)]
+pub struct Thread {
+    pub sin_lead: f64,
+    pub cos_lead: f64,
+    pub cos_flank: f64,
 }
 
 impl Normal {
@@ -164,9 +185,10 @@ impl Normal {
                 row: row + row0,
                 factor: *factor,
             },
-            Normal::Lateral { row, axis } => Normal::Lateral {
+            Normal::Lateral { row, axis, thread } => Normal::Lateral {
                 row: row + row0,
                 axis: *axis,
+                thread: *thread,
             },
         }
     }
@@ -385,11 +407,20 @@ impl Friction {
         let mut n = match &self.normal {
             Normal::Axes { .. } => norm(l(0) * l(0) + l(1) * l(1)),
             Normal::Thread { factor, .. } => norm(l(0) * l(0)) * *factor,
-            Normal::Lateral { axis, .. } => {
+            Normal::Lateral { axis, thread, .. } => {
                 let f = V3([l(0), l(1), l(2)]);
                 let t = V3([T::cst(axis.0[0]), T::cst(axis.0[1]), T::cst(axis.0[2])]);
                 let along = f.dot(&t);
-                norm(f.dot(&f) - along * along)
+                let lateral = norm(f.dot(&f) - along * along);
+                match thread {
+                    None => lateral,
+                    Some(th) => {
+                        let friction = y[self.own()] * ctx.s;
+                        let flank = along - friction * th.sin_lead.powi(2);
+                        let share = th.cos_lead * th.sin_lead * th.cos_flank;
+                        lateral + norm(flank * flank) / share
+                    }
+                }
             }
         };
         if let Some((_, inv_r)) = self.moment {
@@ -525,6 +556,12 @@ impl Friction {
                 next: Mode::Slip { direction: d },
                 ratio: -1.0,
             };
+        }
+        if !forward && !self.can_stick {
+            // A prescribed slip went the other way: redo the step slipping that way (its
+            // motion hardly depends on the friction). A rate that only touches zero then
+            // goes on as it was, where locating a stop would chatter.
+            return Verdict::Switch(Mode::Slip { direction: -d });
         }
         // The slip stopped (or turned) inside the step: stick there, or slide back if it
         // cannot stick. The stop is where the slip rate, linear over the step, vanishes.
@@ -711,6 +748,11 @@ mod tests {
             Normal::Lateral {
                 row: 1,
                 axis: V3([0.6, 0.8, 0.0]),
+                thread: Some(Thread {
+                    sin_lead: 0.1,
+                    cos_lead: 0.99f64.sqrt(),
+                    cos_flank: 0.9,
+                }),
             },
             Some((4, 1.0 / 0.02)),
             5,

@@ -510,6 +510,8 @@ pub struct ScrewJoint {
 ///   the beam's axis;
 /// - sliding screw: as sliding, plus (with `radius`) the twisting moment the follower exerts
 ///   about the beam's axis over `radius`;
+/// - sliding joints with a `lead` (and `radius`): as sliding, plus a thread's normal force
+///   from the axial load (a nut on a jackscrew);
 /// - screw: thread friction along the helix at the mean thread `radius` (lead angle
 ///   α = atan(pitch/radius)); N = the thread's normal force, axial load/(cos α cos β) with
 ///   β the `thread_angle`. The thread holds its load without a torque (self-locking) when
@@ -529,12 +531,19 @@ pub struct Friction {
     /// Normal force present whatever the joint carries (a spring-loaded guide), N (default 0).
     #[serde(default)]
     pub preload: f64,
-    /// m: a screw's mean thread radius (required for a screw joint); for a sliding screw,
-    /// the radius at which its twisting moment is carried (optional).
+    /// m: a screw's mean thread radius (required for a screw joint, and with a `lead`); for a
+    /// sliding screw without a `lead`, the radius at which its twisting moment is carried.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub radius: Option<f64>,
+    /// m per turn: a thread between a sliding joint's follower and its beam (a nut on a
+    /// jackscrew whose turn the slide's drive stands for), at `radius`: its normal force comes
+    /// from the axial load, so the drive pays the screw's friction and a free nut holds its
+    /// load when `static` ≥ tan α · cos β (tan α = lead/(2π radius)). Sliding joints only (a
+    /// screw joint's lead is its pitch).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lead: Option<f64>,
     /// Half-angle of the thread's profile, rad (0: square thread; 0.5236 for ISO metric
-    /// threads, 0.2531 for Acme). Screw joints only.
+    /// threads, 0.2531 for Acme). Screw joints, and sliding joints with a `lead`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub thread_angle: Option<f64>,
 }
