@@ -391,3 +391,22 @@ def test_driving_a_threaded_nut_costs_the_screws_efficiency(direction):
     np.testing.assert_allclose(res["d.force"].values[late], expected[late], rtol=5e-4, atol=5e-4 * 286)
     assert np.all(res["f.stick"].values == 0.0)
     assert np.max(np.abs(res["E.balance"].values)) < 1e-8 * np.abs(res["E.drive_work"].values).max()
+
+
+def test_a_prescribed_slip_at_rest_has_no_friction():
+    # A drive moves the block 0.1 m in 1 s, then holds it: while it moves the drive pays
+    # μk m g; once it rests, nothing slides and no friction acts (what friction would hold
+    # instead of the drive is undetermined — the drive carries it).
+    m = fd.Model("driven then held", gravity=[0, 0, -G])
+    m.node("b", [0, 0, 0]).body("block", "b", mass=2.0, inertia=[0.01, 0.02, 0.03])
+    ramp = {"t": [0.0, 1.0], "value": [0.0, 0.1]}
+    m.prismatic("rail", "ground", "b", axis=[1, 0, 0], drive=ramp, friction={"static": 0.3, "kinetic": 0.25})
+    m.sensor("drive_force", "d", joint="rail")
+    m.sensor("friction", "f", joint="rail")
+    m.simulation(t_end=2.0, step_control="fixed", dt=1e-3)
+    res = fd.simulate(m)
+    t = res["time"].values
+    moving, resting = (t > 0.05) & (t < 0.95), t > 1.05
+    np.testing.assert_allclose(res["d.force"].values[moving], 0.25 * 2.0 * G, rtol=1e-6)
+    assert np.all(res["f.force"].values[resting] == 0.0)
+    assert np.max(np.abs(res["d.force"].values[resting])) < 1e-9

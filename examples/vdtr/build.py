@@ -71,9 +71,15 @@ def vdtr(
     tolerance: float = 1e-3,
     tilt: bool = True,
     mesh: int = 1,
+    thread_friction: float | None = None,
+    thread_lead: float = 0.01,
+    thread_radius: float = 0.025,
 ):
     """The VDTR model; `t_end` can be shortened (the conversion still takes `conversion_time`);
-    `mesh` multiplies every beam's element count (a mesh-convergence check)."""
+    `mesh` multiplies every beam's element count (a mesh-convergence check). With
+    `thread_friction` (μ), each nut's sliding screw joint is a thread of `thread_lead` (m per
+    turn) at `thread_radius` (m) with that friction: the jackscrew's drive then pays the
+    screw's efficiency (not in the paper; see thread_friction.py)."""
     blade = blade_section or section(8.0, 1.0e5, 1.0e6, 1.0e5)
     tube = section(3.0, 2.0e5, 2.0e5, 2.0e5, ea=2e8)
     screw = section(2.0, 5.0e4, 5.0e4, 5.0e4)
@@ -150,7 +156,10 @@ def vdtr(
         eta0 = (r_nut - r_root) / screw_len
         eta1 = eta0 - retraction / screw_len
         ramp = {"t": [0.0, conversion_time], "value": [eta0, eta1]}  # linear, then held
-        m.sliding_screw(f"{n}_nut", f"{n}_jackscrew", f"{n}_blade.0", eta=fd.drive(ramp))
+        thread = None
+        if thread_friction is not None:
+            thread = {"static": thread_friction, "lead": thread_lead, "radius": thread_radius}
+        m.sliding_screw(f"{n}_nut", f"{n}_jackscrew", f"{n}_blade.0", eta=fd.drive(ramp), friction=thread)
         m.sliding_screw(f"{n}_contact1", f"{n}_tube", f"{n}_blade.{2 * mesh}")
         m.sliding_screw(f"{n}_contact2", f"{n}_tube", f"{n}_blade.{4 * mesh}")
         # Pitch horn (on the tube root, ahead of the pitch axis) and pitch link from the

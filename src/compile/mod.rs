@@ -161,6 +161,9 @@ fn assemble(
     for f in &mut kernels.frictions {
         // A billionth of the weight of the mean node: below it a force is nothing.
         f.force_floor = 1e-9 * scales.mass * 9.81;
+        // Rest: a slip of round-off of the model's size, a rate of 1e-9 of it per second.
+        f.rest_slip = 1e-13 * scales.length;
+        f.rest_rate = 1e-9 * scales.length;
     }
     let mut cm_node = vec![None; table.states.len()];
     for l in &placed.links {

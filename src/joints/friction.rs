@@ -36,6 +36,9 @@ use crate::state::State;
 /// sticking, and the last step's force ratio |F|/(μs N) while sticking (−1: unknown).
 pub const HISTORY_LEN: usize = 3;
 
+/// History code of a joint that cannot stick while its prescribed slip rests (no friction).
+const IDLE: f64 = 2.0;
+
 /// Most unknowns of a friction kernel: two coordinates and their jumps, four normal-force
 /// multipliers, its own pair.
 const MAX_UNKNOWNS: usize = 10;
@@ -245,6 +248,9 @@ pub struct Friction {
     /// N: smoothing of the normal force's norm at zero, and the force below which a sticking
     /// joint with no normal force still holds.
     pub force_floor: f64,
+    /// m and m/s: a slip increment and a slip rate below which the slip is at rest.
+    pub rest_slip: f64,
+    pub rest_rate: f64,
     coords: [usize; 2],
     n_coords: usize,
     n_normal: usize,
@@ -299,6 +305,8 @@ impl Friction {
             history,
             can_stick: true,
             force_floor: 1e-9,
+            rest_slip: 1e-14,
+            rest_rate: 1e-9,
             coords: cs,
             n_coords: coords.len(),
             n_normal,
@@ -358,6 +366,8 @@ impl Friction {
         let h = &s.history[self.history..self.history + HISTORY_LEN];
         if h[0] == 0.0 {
             Mode::Stick { hold: h[1] }
+        } else if h[0] == IDLE {
+            Mode::Slip { direction: 0.0 }
         } else {
             Mode::Slip { direction: h[0] }
         }
@@ -378,7 +388,11 @@ impl Friction {
                 h[1] = hold;
             }
             Mode::Slip { direction } => {
-                h[0] = direction.signum();
+                h[0] = if direction == 0.0 {
+                    IDLE
+                } else {
+                    direction.signum()
+                };
                 h[1] = 0.0;
             }
         }
@@ -387,13 +401,16 @@ impl Friction {
 
     /// The mode a run starts in: sliding if the slip already moves (or cannot stick), else
     /// stuck where it is.
-    pub fn initial_mode(&self, s: &State, rest_rate: f64) -> Mode {
+    pub fn initial_mode(&self, s: &State) -> Mode {
         let (u, rate) = self.slip_at(s);
-        if rate.abs() > rest_rate || !self.can_stick {
-            let direction = if rate < 0.0 { -1.0 } else { 1.0 };
-            Mode::Slip { direction }
-        } else {
+        if rate.abs() > self.rest_rate {
+            Mode::Slip {
+                direction: rate.signum(),
+            }
+        } else if self.can_stick {
             Mode::Stick { hold: u }
+        } else {
+            Mode::Slip { direction: 0.0 }
         }
     }
 
@@ -546,7 +563,36 @@ impl Friction {
         }
     }
 
+    /// A joint that cannot stick, its prescribed slip at rest or set going: no friction while
+    /// it rests (how much of the load the friction would take from the drive is undetermined:
+    /// the drive carries it), the kinetic one once it moves.
+    fn prescribed_rest(&self, end: &State, step: &FrictionStep, d: f64) -> Option<Verdict> {
+        let moving = step.slip.abs() > self.rest_slip;
+        if d == 0.0 {
+            return Some(if moving {
+                Verdict::Switch(Mode::Slip {
+                    direction: step.slip.signum(),
+                })
+            } else {
+                Verdict::Holds {
+                    next: Mode::Slip { direction: 0.0 },
+                    ratio: -1.0,
+                }
+            });
+        }
+        let resting = !moving && self.slip_at(end).1.abs() <= self.rest_rate;
+        resting.then_some(Verdict::Holds {
+            next: Mode::Slip { direction: 0.0 },
+            ratio: -1.0,
+        })
+    }
+
     fn slip_verdict(&self, start: &State, end: &State, step: &FrictionStep, d: f64) -> Verdict {
+        if !self.can_stick {
+            if let Some(v) = self.prescribed_rest(end, step, d) {
+                return v;
+            }
+        }
         let (_, rate_i) = self.slip_at(start);
         let (u_f, rate_f) = self.slip_at(end);
         let (vi, vf) = (d * rate_i, d * rate_f);

@@ -37,9 +37,8 @@ pub(super) fn start_frictions(system: &mut System, state: &mut State) {
         let free = crate::system::redundancy::can_stick(system, state, k);
         system.frictions[k].can_stick = free;
     }
-    let rest = 1e-9 * system.length_ref;
     for f in &system.frictions {
-        let mode = f.initial_mode(state, rest);
+        let mode = f.initial_mode(state);
         f.set_mode(state, mode, -1.0);
     }
 }
