@@ -48,17 +48,16 @@ def report(plain, rubbing, mu: float, lead: float = 0.01, radius: float = 0.025)
     with_friction = np.abs(rubbing["jackscrew_force"].values[late]).mean()
     tan_alpha = lead / (2 * np.pi * radius)
     factor = np.tan(np.arctan(tan_alpha) + np.arctan(mu)) / tan_alpha
-    return "\n".join(
-        [
-            f"jackscrew thread: lead {lead * 1e3:.0f} mm, radius {radius * 1e3:.0f} mm, tan α = {tan_alpha:.4f}, μ = {mu}",
-            f"  jackscrew force (mean over {t[-1] / 2:.1f}–{t[-1]:.1f} s): {load:.0f} N without friction",
-            f"                                            {with_friction:.0f} N with it "
-            f"(×{with_friction / load:.3f}; tan(α + φ)/tan α = {factor:.3f})",
-            f"  energy the threads dissipated: {rubbing['energy.friction_dissipation'].values[-1]:.1f} J"
-            if "energy.friction_dissipation" in rubbing
-            else "",
-        ]
-    ).strip()
+    ratio = with_friction / load
+    dissipated = rubbing["energy.friction_dissipation"].values[-1]
+    window = f"{t[-1] / 2:.1f}–{t[-1]:.1f} s"
+    lines = [
+        f"jackscrew thread: lead {lead * 1e3:.0f} mm, radius {radius * 1e3:.0f} mm, tan α = {tan_alpha:.4f}, μ = {mu}",
+        f"  jackscrew force (mean over {window}): {load:.0f} N without friction",
+        f"  with it: {with_friction:.0f} N, ×{ratio:.3f} (tan(α + φ)/tan α = {factor:.3f})",
+        f"  energy the threads dissipated: {dissipated:.1f} J",
+    ]
+    return "\n".join(lines)
 
 
 def main():
