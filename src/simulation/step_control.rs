@@ -186,7 +186,11 @@ impl Simulation {
             match tried {
                 Ok((step, e)) => {
                     let (state, report, event) = (step.state, step.report, step.event);
-                    // A friction event ends the step early: that is the step taken.
+                    // A friction event ends the step early: that is the step taken. The
+                    // size after it comes from the size tried, not from the sliver a
+                    // located event left (which would make every next event's sliver
+                    // smaller still).
+                    let tried_h = h;
                     h = step.h;
                     let stuck =
                         previous_trial.is_some_and(|(h0, e0)| h < 0.67 * h0 && e > 0.9 * e0);
@@ -203,6 +207,9 @@ impl Simulation {
                         } else {
                             (h * factor).clamp(dt_min, dt_max)
                         };
+                        if h < tried_h {
+                            self.h_next = self.h_next.max(tried_h.min(dt_max));
+                        }
                         if event {
                             // The motion's history says nothing about the motion after a
                             // stick–slip event: start afresh, from the size asked before it.
