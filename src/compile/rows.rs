@@ -174,8 +174,8 @@ impl RowTable {
                 let h0 = history.len();
                 // Sliding until the run sets its mode from the initial velocities (a stick
                 // row would hold the initial velocity projection's slip).
-                history.extend([1.0, 0.0, -1.0]);
-                debug_assert_eq!(friction::HISTORY_LEN, 3);
+                history.extend([1.0, 0.0, -1.0, 0.0]);
+                debug_assert_eq!(friction::HISTORY_LEN, 4);
                 let mut kernel = Friction::new(
                     f.name,
                     f.coefficients,

@@ -35,7 +35,7 @@ impl Integrator {
         // motion the loads can cause, not the one friction lets them start with.
         for f in &sys.frictions {
             let free = crate::joints::friction::Mode::Slip { direction: 1.0 };
-            f.set_mode(&mut rest, free, -1.0);
+            f.set_mode(&mut rest, free, None);
         }
         let layout = sys.layout;
         let ctx = StepCtx {

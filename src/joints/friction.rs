@@ -33,8 +33,16 @@ use crate::math::vec3::V3;
 use crate::state::State;
 
 /// History slots: mode (0 stick, ±1 slipping towards ±u), the held slip position (m) while
-/// sticking, and the last step's force ratio |F|/(μs N) while sticking (−1: unknown).
-pub const HISTORY_LEN: usize = 3;
+/// sticking, and the last sticking step's force ratio |F|/(μs N) (−1: unknown) and length (s).
+pub const HISTORY_LEN: usize = 4;
+
+/// A sticking step's force ratio |F|/(μs N) — a mean over the step, so the value at its
+/// middle — and the step's length (s).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StickRatio {
+    pub value: f64,
+    pub step: f64,
+}
 
 /// History code of a joint that cannot stick while its prescribed slip rests (no friction).
 const IDLE: f64 = 2.0;
@@ -55,6 +63,14 @@ const BLOCK_POSITIONS: [usize; MAX_UNKNOWNS * MAX_UNKNOWNS] = {
 
 /// An event closer than this fraction of the step to its start is taken at the start.
 pub const MIN_EVENT_FRACTION: f64 = 1e-3;
+
+/// How far above 1 a sticking step's force ratio |F|/(μs N) may end when it breaks away at
+/// the step's end: placing the breakaway closer takes steps so short that their mean forces
+/// are no better known.
+const BREAKAWAY_RATIO: f64 = 1e-2;
+
+/// A slip rate this fraction of the step's starting rate, and falling, ends the step stopped.
+const STOPPED_RATE: f64 = 0.1;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Mode {
@@ -220,7 +236,10 @@ pub struct FrictionStep {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Verdict {
     /// The step is consistent with its mode; the next step starts in `next`.
-    Holds { next: Mode, ratio: f64 },
+    Holds {
+        next: Mode,
+        ratio: Option<StickRatio>,
+    },
     /// The mode changes at the step's start: redo the step in this mode.
     Switch(Mode),
     /// The mode changes inside the step, at about this fraction of it: redo it that long.
@@ -373,14 +392,17 @@ impl Friction {
         }
     }
 
-    /// The last sticking step's force ratio |F|/(μs N), if known.
-    fn last_ratio(&self, s: &State) -> Option<f64> {
-        let r = s.history[self.history + 2];
-        (r >= 0.0).then_some(r)
+    /// The last sticking step's force ratio, if known.
+    fn last_ratio(&self, s: &State) -> Option<StickRatio> {
+        let h = &s.history[self.history..self.history + HISTORY_LEN];
+        (h[2] >= 0.0).then_some(StickRatio {
+            value: h[2],
+            step: h[3],
+        })
     }
 
-    /// Writes the mode a step from `s` takes (and the ratio it leaves, −1 if none).
-    pub fn set_mode(&self, s: &mut State, mode: Mode, ratio: f64) {
+    /// Writes the mode a step from `s` takes (and the sticking step's ratio it leaves).
+    pub fn set_mode(&self, s: &mut State, mode: Mode, ratio: Option<StickRatio>) {
         let h = &mut s.history[self.history..self.history + HISTORY_LEN];
         match mode {
             Mode::Stick { hold } => {
@@ -396,7 +418,7 @@ impl Friction {
                 h[1] = 0.0;
             }
         }
-        h[2] = ratio;
+        (h[2], h[3]) = ratio.map_or((-1.0, 0.0), |r| (r.value, r.step));
     }
 
     /// The mode a run starts in: sliding if the slip already moves (or cannot stick), else
@@ -509,9 +531,10 @@ impl Friction {
     }
 
     /// What the converged step from `start` to `end` means for the mode (see [`Verdict`]).
-    pub fn verdict(&self, start: &State, end: &State, step: &FrictionStep) -> Verdict {
+    /// `h` (s) is the step's length.
+    pub fn verdict(&self, start: &State, end: &State, step: &FrictionStep, h: f64) -> Verdict {
         match self.mode(start) {
-            Mode::Stick { hold } => self.stick_verdict(start, step, hold),
+            Mode::Stick { hold } => self.stick_verdict(start, step, hold, h),
             Mode::Slip { direction } => self.slip_verdict(start, end, step, direction),
         }
     }
@@ -533,29 +556,36 @@ impl Friction {
         }
     }
 
-    fn stick_verdict(&self, start: &State, step: &FrictionStep, hold: f64) -> Verdict {
+    fn stick_verdict(&self, start: &State, step: &FrictionStep, hold: f64, h: f64) -> Verdict {
         let limit = self.coefficients.static_ * step.normal;
-        let ratio = if limit > 0.0 {
-            step.force.abs() / limit
-        } else {
-            0.0
+        let ratio = StickRatio {
+            value: if limit > 0.0 {
+                step.force.abs() / limit
+            } else {
+                0.0
+            },
+            step: h,
         };
         if step.force.abs() <= limit * (1.0 + 1e-9) + self.force_floor {
             return Verdict::Holds {
                 next: Mode::Stick { hold },
-                ratio,
+                ratio: Some(ratio),
             };
         }
         // It breaks away towards the slip the stick force was resisting, at the crossing of
-        // the ratio through 1 (linear from the last step's), else at the start.
+        // the ratio through 1, else at the start.
         let direction = step.force.signum();
         let fraction = self
             .last_ratio(start)
-            .filter(|&r| r < 1.0 && ratio > r)
-            .map_or(0.0, |r| (1.0 - r) / (ratio - r));
+            .map_or(0.0, |last| crossing(last, ratio) / h);
         let slip = Mode::Slip { direction };
-        if fraction >= 0.95 {
-            Verdict::Holds { next: slip, ratio }
+        // A step whose ratio exceeds 1 by less than the ratio is known to (step means of a
+        // very short step carry the force residual's error) has found the crossing.
+        if fraction >= 0.95 || ratio.value <= 1.0 + BREAKAWAY_RATIO {
+            Verdict::Holds {
+                next: slip,
+                ratio: Some(ratio),
+            }
         } else if fraction < MIN_EVENT_FRACTION {
             Verdict::Switch(slip)
         } else {
@@ -576,14 +606,14 @@ impl Friction {
             } else {
                 Verdict::Holds {
                     next: Mode::Slip { direction: 0.0 },
-                    ratio: -1.0,
+                    ratio: None,
                 }
             });
         }
         let resting = !moving && self.slip_at(end).1.abs() <= self.rest_rate;
         resting.then_some(Verdict::Holds {
             next: Mode::Slip { direction: 0.0 },
-            ratio: -1.0,
+            ratio: None,
         })
     }
 
@@ -597,10 +627,15 @@ impl Friction {
         let (u_f, rate_f) = self.slip_at(end);
         let (vi, vf) = (d * rate_i, d * rate_f);
         let forward = d * step.slip >= 0.0;
-        if forward && vf >= 0.0 {
+        // A slip that ends the step all but stopped, on either side of zero, stopped there:
+        // a stop placed by a shortened step lands a hair before or after it, and a hair
+        // before must not leave a sliver of a step to place it again. (A prescribed slip
+        // goes on: its next step says which way.)
+        let stopped = forward && vf < vi && vf.abs() <= STOPPED_RATE * vi;
+        if forward && vf >= 0.0 && !(stopped && self.can_stick) {
             return Verdict::Holds {
                 next: Mode::Slip { direction: d },
-                ratio: -1.0,
+                ratio: None,
             };
         }
         if !forward && !self.can_stick {
@@ -620,11 +655,11 @@ impl Friction {
             }
         };
         let fraction = if vi > 0.0 { vi / (vi - vf) } else { 0.0 };
-        if forward && (fraction >= 0.9 || vf.abs() <= 0.1 * vi) {
+        if forward && (fraction >= 0.9 || stopped) {
             // Stopped at the step's end, to a residual rate the stick's projection removes.
             Verdict::Holds {
                 next: stop(u_f),
-                ratio: -1.0,
+                ratio: None,
             }
         } else if fraction < MIN_EVENT_FRACTION {
             Verdict::Switch(stop(u_i))
@@ -632,6 +667,18 @@ impl Friction {
             Verdict::Shorten(fraction)
         }
     }
+}
+
+/// Where, in time from the step's start (s), a force ratio that rose from the last sticking
+/// step's mean `last` (below 1) to this step's mean `now` (above it) crossed 1: linear between
+/// the steps' middles, as means of a smoothly varying ratio are. Zero (at the start) when it
+/// did not rise through 1 or crossed before the start.
+fn crossing(last: StickRatio, now: StickRatio) -> f64 {
+    if last.value >= 1.0 || now.value <= last.value {
+        return 0.0;
+    }
+    let span = 0.5 * (last.step + now.step);
+    ((1.0 - last.value) / (now.value - last.value) * span - 0.5 * last.step).max(0.0)
 }
 
 impl Kernel for Friction {
@@ -710,7 +757,7 @@ impl Kernel for Friction {
         let mut mask = vec![false; self.unknowns.len().pow(2)];
         for mode in [Mode::Stick { hold: 0.1 }, Mode::Slip { direction: 1.0 }] {
             let mut state = ctx.state.clone();
-            self.set_mode(&mut state, mode, -1.0);
+            self.set_mode(&mut state, mode, None);
             let c = StepCtx {
                 state: &state,
                 ..*ctx
@@ -741,7 +788,7 @@ mod tests {
             coords: vec![1.37, 0.4],
             coord_rates: vec![0.8, -0.3],
             lambda: vec![0.0; 6],
-            history: vec![1.0, 0.0, -1.0],
+            history: vec![1.0, 0.0, -1.0, 0.0],
         }
     }
 
@@ -819,7 +866,7 @@ mod tests {
             for mode in [Mode::Stick { hold: 0.1 }, Mode::Slip { direction: -1.0 }] {
                 for f in frictions(&layout) {
                     let mut st = state();
-                    f.set_mode(&mut st, mode, -1.0);
+                    f.set_mode(&mut st, mode, None);
                     let ctx = StepCtx {
                         layout,
                         h: 0.02,
@@ -875,48 +922,61 @@ mod tests {
         let layout = Layout::new(Scheme::Ep, 0, 2, 6);
         let f = &frictions(&layout)[1];
         let mut start = state();
-        f.set_mode(&mut start, Mode::Stick { hold: 1.37 }, 0.5);
+        let h = 1e-3;
+        let last = StickRatio {
+            value: 0.5,
+            step: h,
+        };
+        f.set_mode(&mut start, Mode::Stick { hold: 1.37 }, Some(last));
         let end = start.clone();
-        // μs N = 0.4 × 10: 3.9 N holds, 4.1 N breaks away (towards +u, the slip it resisted)
-        // where the ratio, 0.5 at the last step, crossed 1.
+        // μs N = 0.4 × 10: 3.9 N holds, 4.4 N breaks away (towards +u, the slip it resisted)
+        // where the ratio, rising linearly from 0.5 at the last step's middle to 1.1 at this
+        // one's, crossed 1: 5/6 of the way, a third into this step.
         assert!(matches!(
-            f.verdict(&start, &end, &step(3.9, 10.0, 0.0)),
+            f.verdict(&start, &end, &step(3.9, 10.0, 0.0), h),
             Verdict::Holds {
                 next: Mode::Stick { .. },
                 ..
             }
         ));
-        match f.verdict(&start, &end, &step(6.0, 10.0, 0.0)) {
-            Verdict::Shorten(x) => assert!((x - 0.5 / 1.0).abs() < 1e-12, "{x}"),
+        match f.verdict(&start, &end, &step(4.4, 10.0, 0.0), h) {
+            Verdict::Shorten(x) => assert!((x - 1.0 / 3.0).abs() < 1e-12, "{x}"),
             v => panic!("{v:?}"),
         }
-        f.set_mode(&mut start, Mode::Stick { hold: 1.37 }, -1.0);
+        // A ratio that reaches 1.5 by this step's middle crossed at its start (the last
+        // step's ratio is a mean, not its end's value) ...
         assert_eq!(
-            f.verdict(&start, &end, &step(-6.0, 10.0, 0.0)),
+            f.verdict(&start, &end, &step(6.0, 10.0, 0.0), h),
+            Verdict::Switch(Mode::Slip { direction: 1.0 })
+        );
+        // ... as does one whose history is unknown.
+        f.set_mode(&mut start, Mode::Stick { hold: 1.37 }, None);
+        assert_eq!(
+            f.verdict(&start, &end, &step(-6.0, 10.0, 0.0), h),
             Verdict::Switch(Mode::Slip { direction: -1.0 })
         );
         // Slipping towards +u at 0.8 m/s; ending at −0.8 m/s it stopped half-way.
-        f.set_mode(&mut start, Mode::Slip { direction: 1.0 }, -1.0);
+        f.set_mode(&mut start, Mode::Slip { direction: 1.0 }, None);
         let mut end = start.clone();
         end.coord_rates[0] = -0.8;
         assert_eq!(
-            f.verdict(&start, &end, &step(3.0, 10.0, 1e-3)),
+            f.verdict(&start, &end, &step(3.0, 10.0, 1e-3), h),
             Verdict::Shorten(0.5)
         );
         // Ending nearly at rest: it sticks there, from the end state's slip.
         end.coord_rates[0] = -0.01;
         end.coords[0] = 1.38;
         assert_eq!(
-            f.verdict(&start, &end, &step(3.0, 10.0, 1e-2)),
+            f.verdict(&start, &end, &step(3.0, 10.0, 1e-2), h),
             Verdict::Holds {
                 next: Mode::Stick { hold: 1.38 },
-                ratio: -1.0
+                ratio: None
             }
         );
         // Still sliding: nothing happens.
         end.coord_rates[0] = 0.5;
         assert!(matches!(
-            f.verdict(&start, &end, &step(3.0, 10.0, 1e-2)),
+            f.verdict(&start, &end, &step(3.0, 10.0, 1e-2), h),
             Verdict::Holds {
                 next: Mode::Slip { direction } ,
                 ..
