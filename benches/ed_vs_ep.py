@@ -23,7 +23,7 @@ def run(model: str, scheme: str, dt: float, t_end: float) -> tuple[float, dict]:
     m.simulation(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end)
     start = time.process_time()
     res = fd.simulate(m)
-    return time.process_time() - start, res.attrs["stats"]
+    return time.process_time() - start, res.flexdyn.stats
 
 
 def main() -> None:

@@ -54,7 +54,7 @@ def run(label, model, **kw):
     t0 = time.perf_counter()
     res = fd.simulate(model, **kw)
     wall = time.perf_counter() - t0
-    s = res.attrs["stats"]
+    s = res.flexdyn.stats
     print(
         f"{label:<28} {res.attrs['scheme']:>3} {s['unknowns']:>6} {s['steps']:>7} "
         f"{s['newton_iterations'] / max(s['steps'], 1):>6.2f} {s['factorizations']:>7} "

@@ -139,7 +139,7 @@ def study(name, scheme, repeats):
                 ends = fd.simulate(model, scheme=scheme, **kw)  # every step recorded
                 err = error_at(ref_t, ref_x, res["time"].values, watched(res, channels))
                 err_ends = error_at(ref_t, ref_x, ends["time"].values, watched(ends, channels))
-                rows[label] = (kind, (err, err_ends, res.attrs["stats"]), kw)
+                rows[label] = (kind, (err, err_ends, res.flexdyn.stats), kw)
     fixed = [(rows[lb][1][0], np.median(times[lb])) for k, lb, _ in configs if k == "fixed" and rows[lb][1]]
     unit = ref[channels[0]].attrs.get("units", "")
     print(f"\n{name}, {scheme.upper()} (range of {', '.join(channels)}: {span:.3g} {unit})\n")

@@ -73,7 +73,7 @@ def wind_turbine(t_end=6.0):
 
 if __name__ == "__main__":
     res = fd.simulate(wind_turbine(), out="wind_turbine.nc")
-    s = res.attrs["stats"]
+    s = res.flexdyn.stats
     print(f"{s['steps']} steps, {s['wall_time_s']:.1f} s; warnings: {res.attrs['warnings'] or 'none'}")
     for k in (1, 2, 3):
         m3 = res[f"root{k}.M3"].values  # edgewise: the blade's weight as it turns

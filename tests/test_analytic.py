@@ -157,4 +157,4 @@ def test_driven_fourbar_kinematics_and_torque(scheme):
     ke = res["e.kinetic"].values
     assert np.max(np.abs(w - (ke - ke[0]))) < 1e-9 * np.max(ke)
     # Velocities were not given: they are completed from the drive without a warning.
-    assert not res.attrs["warnings_list"]
+    assert not res.flexdyn.warnings

@@ -53,7 +53,7 @@ def beam_slider_case2(screw: bool):
 @pytest.mark.parametrize("screw", [False, True], ids=["prismatic+revolute", "screw+universal"])
 def test_case2_assembly_runs_with_exact_constraints_and_energy_balance(screw):
     s = fd.simulate(beam_slider_case2(screw), scheme="ed", step_control="fixed", dt=2e-3, t_end=0.25)
-    stats = s.attrs["stats"]
+    stats = s.flexdyn.stats
     assert stats["max_constraint_violation"] < 1e-10
     assert stats["max_constraint_work"] < 1e-6 * np.abs(s["e.drive_work"].values).max()
     t = s.time.values

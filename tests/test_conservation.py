@@ -64,7 +64,7 @@ DRIFT = 1e-9
 
 def test_free_body_ep_conserves_energy_and_angular_momentum():
     res = fd.simulate(free_body("ep", 0.01, 100.0))
-    assert res.attrs["stats"]["steps"] == 10_000
+    assert res.flexdyn.stats["steps"] == 10_000
     assert rel_drift(res["e.total"]) < DRIFT
     h = angular_momentum(res, {"b": (2.0, J_FREE)})
     assert np.max(np.linalg.norm(h - h[0], axis=1)) / np.linalg.norm(h[0]) < DRIFT
@@ -72,17 +72,17 @@ def test_free_body_ep_conserves_energy_and_angular_momentum():
 
 def test_heavy_top_ep_conserves_energy_and_vertical_momentum():
     res = fd.simulate(heavy_top("ep", 1e-4, 1.0))
-    assert res.attrs["stats"]["steps"] == 10_000
+    assert res.flexdyn.stats["steps"] == 10_000
     assert rel_drift(res["e.total"]) < DRIFT
     # Gravity and the pivot force have no moment about the vertical through the pivot.
     hz = angular_momentum(res, {"top": (15.0, np.diag([0.234375, 0.46875, 0.234375]))})[:, 2]
     assert np.max(np.abs(hz - hz[0])) / np.max(np.abs(hz)) < 1e-8
-    assert res.attrs["stats"]["max_constraint_violation"] < 1e-10
+    assert res.flexdyn.stats["max_constraint_violation"] < 1e-10
 
 
 def test_double_pendulum_ep_conserves_energy_with_constraints_held():
     res = fd.simulate(double_pendulum("ep", 1e-3, 10.0))
-    s = res.attrs["stats"]
+    s = res.flexdyn.stats
     assert s["steps"] == 10_000
     # The motion is large: the knee swings through a wide angle.
     assert np.ptp(res["knee_angle.phi"].values) > 0.5
@@ -103,9 +103,9 @@ def test_ed_energy_never_increases_and_loss_is_the_jump_energy(model):
     # E_f − E_i = −D each step: the balance (E − E0 + Σ D) stays at round-off.
     assert np.max(np.abs(res["e.balance"].values)) < 1e-10 * scale
     assert res["e.numerical_dissipation"].values[-1] > 0
-    assert res.attrs["stats"]["max_energy_defect"] < 1e-11 * scale
+    assert res.flexdyn.stats["max_energy_defect"] < 1e-11 * scale
     # The sparsity pattern detected at set-up held for every assembly.
-    assert res.attrs["stats"]["pattern_misses"] == 0
+    assert res.flexdyn.stats["pattern_misses"] == 0
 
 
 @pytest.mark.parametrize("scheme", ["ed", "ep"])

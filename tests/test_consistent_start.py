@@ -93,7 +93,7 @@ def test_a_rod_driven_at_speed_from_t0_carries_the_rigid_mechanism_loads(scheme)
         a = rigid[channel].values
         b = np.interp(flexible["time"].values, t, a)
         assert np.abs(b - flexible[channel].values)[after].max() < 0.1 * np.abs(a).max(), channel
-    assert flexible.attrs["stats"]["steps"] < 2000
+    assert flexible.flexdyn.stats["steps"] < 2000
 
 
 def test_a_rigid_mechanism_that_cannot_be_rigidified_warns_with_the_reason():
@@ -125,7 +125,7 @@ def test_a_rod_brought_up_to_speed_smoothly_carries_the_rigid_mechanism_loads():
     for channel in ("rail.F1", "motor.torque"):
         a, b = rigid[channel].values, flexible[channel].values
         assert np.abs(a - b).max() < 0.1 * np.abs(a).max(), channel
-    assert flexible.attrs["stats"]["steps"] < 5000
+    assert flexible.flexdyn.stats["steps"] < 5000
 
 
 def fine(model, dt):

@@ -65,7 +65,7 @@ def test_a_rigid_arm_spun_up_from_rest_runs_and_needs_the_torque_of_its_inertia(
     res = fd.simulate(spin_up(False), scheme=scheme, output_dt=0.05)
     t = res["time"].values
     assert t[-1] == pytest.approx(4.0)
-    stats = res.attrs["stats"]
+    stats = res.flexdyn.stats
     # It used to stop at t ≈ 2e-3 s, the steps collapsed to dt_min chasing round-off.
     assert stats["dt_smallest"] > 1e-4
     # The tip rides the drive, 10 m from the axis at angle θ(t): exactly at step ends; at the
@@ -92,7 +92,7 @@ def test_a_rigid_arm_spun_up_from_rest_runs_and_needs_the_torque_of_its_inertia(
 @pytest.mark.parametrize("scheme", ["ed", "ep"])
 def test_a_flexible_blade_spun_up_from_rest_runs_with_default_settings(scheme):
     res = fd.simulate(spin_up(True), scheme=scheme, output_dt=0.05)
-    stats = res.attrs["stats"]
+    stats = res.flexdyn.stats
     assert res["time"].values[-1] == pytest.approx(4.0)
     assert stats["dt_smallest"] > 1e-4
     assert stats["max_constraint_violation"] < 1e-10
@@ -132,7 +132,7 @@ def test_a_cantilever_runs_whatever_its_direction(scheme):
     for angle in range(0, 360, 15):
         res = fd.simulate(cantilever(angle), scheme=scheme, output_dt=1e-3)
         assert res["time"].values[-1] == pytest.approx(0.05), angle
-        assert res.attrs["stats"]["max_constraint_violation"] < 1e-12, angle
+        assert res.flexdyn.stats["max_constraint_violation"] < 1e-12, angle
         tips.append(np.stack([res[f"tip.{c}"].values for c in "xyz"], axis=1))
         moments.append(np.stack([res[f"mid.{c}"].values for c in ("F3", "M2")], axis=1))
         # The sag bends about axis 2 (axis 3 is up): nothing about axis 3.
@@ -177,7 +177,7 @@ def three_bladed_rotor():
 def test_a_three_bladed_rotor_runs_out_of_the_box(scheme):
     res = fd.simulate(three_bladed_rotor(), scheme=scheme, output_dt=0.02)
     assert res["time"].values[-1] == pytest.approx(2.0)
-    assert res.attrs["stats"]["max_constraint_violation"] < 1e-10
+    assert res.flexdyn.stats["max_constraint_violation"] < 1e-10
     # The blades are alike: they droop alike under gravity (symmetry of the rotor).
     droop = [res[f"tip{k}.z"].values for k in range(3)]
     assert droop[0].min() < -1e-4
@@ -219,7 +219,7 @@ def test_a_step_whose_joint_does_not_hold_is_never_recorded(scheme, rest, veloci
         res = e.results
     radius = np.hypot(res["bob_at.x"].values, res["bob_at.z"].values)
     assert np.abs(radius - 1.0).max() < 1e-12
-    assert res.attrs["stats"]["max_constraint_violation"] < 1e-12
+    assert res.flexdyn.stats["max_constraint_violation"] < 1e-12
 
 
 def test_samples_inside_long_steps_are_as_accurate_as_the_step_ends():

@@ -56,7 +56,7 @@ def test_block_slides_above_the_friction_angle_at_the_kinetic_acceleration(schem
     np.testing.assert_allclose(res["f.dissipation"].values, 0.4 * normal * delta, rtol=1e-7, atol=1e-12)
     energy = res["E.total"].values
     assert np.max(np.abs(res["E.balance"].values)) < 1e-9 * np.ptp(energy)
-    assert res.attrs["stats"]["max_energy_defect"] < 1e-9 * np.ptp(energy)
+    assert res.flexdyn.stats["max_energy_defect"] < 1e-9 * np.ptp(energy)
 
 
 @pytest.mark.parametrize("scheme", ["ep", "ed"])
@@ -445,4 +445,4 @@ def test_a_clamped_collar_on_a_ringing_free_beam_stops_and_breaks_away_without_s
     assert np.all(np.diff(e) <= 1e-9 * np.abs(e).max())
     assert np.max(np.abs(res["E.balance"].values)) < 1e-8 * np.abs(e).max()
     # No step failed: events never squeezed a step to where Newton cannot converge.
-    assert res.attrs["stats"]["halvings"] == 0
+    assert res.flexdyn.stats["halvings"] == 0

@@ -144,7 +144,7 @@ def test_inconsistent_given_velocities_are_projected_and_reported():
     m.revolute("pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0])
     m.sensor("node_velocity", "v", node="bob")
     res = fd.simulate(m, scheme="ed", step_control="fixed", dt=1e-3, t_end=0.01)
-    (w,) = res.attrs["warnings_list"]
+    (w,) = res.flexdyn.warnings
     assert "`bob`" in w and "adjusted" in w and "give consistent velocities" in w
     # The kinetic-energy-closest admissible velocity keeps the tangential part only.
     assert res["v.vx"].values[0] == pytest.approx(0.0, abs=1e-12)
@@ -183,7 +183,7 @@ def test_unspecified_velocities_follow_the_given_ones():
     m.clamp("weld", "a", "b")
     m.sensor("node_velocity", "va", node="a").sensor("node_velocity", "vb", node="b")
     res = fd.simulate(m, scheme="ed", step_control="fixed", dt=1e-3, t_end=0.002)
-    assert res.attrs["warnings_list"] == []
+    assert res.flexdyn.warnings == []
     # Unspecified nodes weigh 1e-6 of their mass in the projection, and three proximal solves
     # shrink the pull on the given velocities to ~1e-18.
     assert res["va.vx"].values[0] == pytest.approx(1.0, abs=1e-10)

@@ -39,7 +39,7 @@ def test_shipped_yaml_models_are_the_ones_the_script_builds():
 
 def test_runs_hold_their_constraints_and_balance_their_energy(runs):
     for stem, res in runs.items():
-        stats = res.attrs["stats"]
+        stats = res.flexdyn.stats
         assert stats["max_constraint_violation"] < 1e-10, stem
         # Modified Newton stops just below newton_tol (1e-10 of the force scale): the energy
         # identity closes to ~1e-8 J against ~1e2 J of drive work.
@@ -69,7 +69,7 @@ def test_both_cases_follow_the_same_prescribed_slide(runs):
     t = c1["time"].values
     eta = 0.5 - 0.25 * np.cos(2 * np.pi * t)
     for res, values in ((c1, c1["eta"].values), (c2, c2["delta"].values / 2.4 + 0.25)):
-        bound = res.attrs["stats"]["dt_largest"] ** 2 * np.pi**2 / 8
+        bound = res.flexdyn.stats["dt_largest"] ** 2 * np.pi**2 / 8
         assert np.abs(values - eta).max() <= bound * (1 + 1e-9)
     assert c1["eta"].values[-1] == pytest.approx(eta[-1], abs=1e-12)
 

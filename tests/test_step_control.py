@@ -56,7 +56,7 @@ def test_tightening_the_tolerance_reduces_the_error_consistently(reference, sche
     for tol in (1e-3, 1e-4, 1e-5):
         res = fd.simulate(heavy_top(scheme=scheme, step_control="adaptive", tolerance=tol, output_dt=0.01))
         errors.append(np.abs(cm(res) - reference).max())
-        steps.append(res.attrs["stats"]["steps"])
+        steps.append(res.flexdyn.stats["steps"])
     # The indicator is a velocity error ∝ h², as is the global error: errors ∝ tol (×10 per
     # decade; measured ×8–15) and steps ∝ tol^(−1/2) (×3.2; measured ×2.4–3.9).
     for k in range(2):
@@ -82,7 +82,7 @@ def jerked_pendulum():
 
 def test_a_sudden_event_shrinks_the_step_which_then_grows_back():
     res = fd.simulate(jerked_pendulum())
-    stats = res.attrs["stats"]
+    stats = res.flexdyn.stats
     t = res["time"].values  # every step is recorded
     h = np.diff(t)
     before = h[(t[1:] > 0.2) & (t[1:] < 0.43)]
@@ -143,7 +143,7 @@ def test_modified_newton_reuses_factors_and_reaches_the_same_solution(scheme):
         if modified is not None:
             m.data["simulation"]["modified_newton"] = modified
         runs.append(fd.simulate(m))
-    full, mod = (r.attrs["stats"] for r in runs)
+    full, mod = (r.flexdyn.stats for r in runs)
     # Factors reused across iterations and steps: a third of the factorizations (measured
     # 1055 vs 2910 over 1000 steps), every update a linear solve, plus at most one
     # back-substitution per converged step (the polish on kept factors).
@@ -164,7 +164,7 @@ def test_fixed_steps_keep_their_factors_through_round_off():
     for scheme in ("ep", "ed"):
         m = fd.load(EXAMPLES / "beam_pendulum.yaml")
         m.simulation(scheme=scheme, step_control="fixed", dt=1e-3, t_end=2.0)
-        stats = fd.simulate(m).attrs["stats"]
+        stats = fd.simulate(m).flexdyn.stats
         assert stats["factorizations"] < 0.45 * stats["steps"], (scheme, stats)
 
 
@@ -179,7 +179,7 @@ def test_ed_large_steps_keep_the_decoupled_factors(dt):
     # counted as slow contraction). The bound leaves room for a genuine miss or two.
     m = fd.load(EXAMPLES / "beam_pendulum.yaml")
     m.simulation(scheme="ed", step_control="fixed", dt=dt, t_end=1.0)
-    stats = fd.simulate(m).attrs["stats"]
+    stats = fd.simulate(m).flexdyn.stats
     assert stats["exact_factorizations"] < 0.05 * stats["steps"], stats
     assert stats["factorizations"] < 1.2 * stats["steps"], stats
 
@@ -240,7 +240,7 @@ def test_a_rotor_driven_from_t0_starts_turning_as_a_whole_with_or_without_initia
         assert run["tip.x"].values[0] - 2.0 == pytest.approx(stretch, rel=1e-4)
         assert run["tip_v.vy"].values[0] == pytest.approx(20.0 * run["tip.x"].values[0], rel=1e-12)
         assert np.abs(run["motor.torque"].values).max() < 10.0
-        assert run.attrs["stats"]["steps"] < 500
+        assert run.flexdyn.stats["steps"] < 500
 
 
 def test_initial_spin_items_must_exist():
@@ -264,7 +264,7 @@ def test_newton_stops_on_a_small_update_when_asked():
         )
         runs[inc] = fd.simulate(m)
     loose, tight = runs[1e-5], runs[1e-13]
-    assert loose.attrs["stats"]["newton_iterations"] < tight.attrs["stats"]["newton_iterations"]
+    assert loose.flexdyn.stats["newton_iterations"] < tight.flexdyn.stats["newton_iterations"]
     # One more Newton update would have moved the bob < 1e-5 m (quadratic: far less).
     assert np.abs(loose["angle.phi"].values - tight["angle.phi"].values).max() < 1e-5
 
@@ -276,7 +276,7 @@ def test_modified_newton_refactors_before_halving_a_rotors_step():
     # were before the retry).
     m = rotor(True)
     m.simulation(t_end=1.0, dt=0.015, scheme="ed", step_control="fixed", modified_newton=True)
-    stats = fd.simulate(m).attrs["stats"]
+    stats = fd.simulate(m).flexdyn.stats
     assert stats["halvings"] == 0
     assert stats["factorizations"] < stats["newton_iterations"]  # factors still reused
 
@@ -289,5 +289,5 @@ def test_ed_decoupled_factors_back_off_where_they_do_not_serve():
     # factorizations (exact only: 118; retrying the decoupled system every time: 160).
     m = fd.load(EXAMPLES / "beam_pendulum.yaml")
     m.simulation(tolerance=1e-3)
-    stats = fd.simulate(m).attrs["stats"]
+    stats = fd.simulate(m).flexdyn.stats
     assert stats["factorizations"] < 1.9 * stats["steps"], stats

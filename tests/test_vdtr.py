@@ -52,7 +52,7 @@ def test_drive_holds_a_steady_spin_with_almost_no_torque(hovering):
 
 
 def test_runs_hold_the_joints_and_balance_energy(hovering):
-    stats = hovering.attrs["stats"]
+    stats = hovering.flexdyn.stats
     assert stats["max_constraint_violation"] < 1e-9
     # Modified Newton converges to newton_tol: the identity closes to ~1e-5 J against a
     # rotor kinetic energy of ~2e5 J.
@@ -141,7 +141,7 @@ def test_the_conversion_shows_the_papers_behaviour(tmp_path):
     # with the joints held, and the paper's statements hold on 2 s windows (the numbers in
     # docs/paper_examples.md come from the same run).
     res = fd.simulate(vdtr(), out=tmp_path / "vdtr.nc")
-    assert res.attrs["stats"]["max_constraint_violation"] < 1e-9
+    assert res.flexdyn.stats["max_constraint_violation"] < 1e-9
     t = res["time"].values
     assert t[-1] == pytest.approx(20.0)
     mean = lambda v: v.mean()

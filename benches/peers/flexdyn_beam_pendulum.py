@@ -28,7 +28,7 @@ def run(scheme, control, value):
     cpu = time.process_time() - t0
     times = [float(t) for t in res["time"].values]
     tip = [[float(res[f"tip_position.{c}"][k]) for c in "xyz"] for k in range(len(times))]
-    stats = res.attrs["stats"]
+    stats = res.flexdyn.stats
     return {
         "cpu": cpu,
         "steps": stats["steps"],

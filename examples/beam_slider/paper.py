@@ -53,7 +53,7 @@ def run_all(out: Path) -> dict:
     for stem, kw in MODELS.items():
         t0 = time.perf_counter()
         res = fd.simulate(beam_slider(**kw), out=out / f"{stem}.nc")
-        s = res.attrs["stats"]
+        s = res.flexdyn.stats
         wall = time.perf_counter() - t0
         print(
             f"{stem}: {res['time'].values[-1]:.1f} s simulated in {wall:.2f} s wall; {s['steps']} steps "

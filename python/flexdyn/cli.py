@@ -103,9 +103,9 @@ def _run(args) -> int:
         if isinstance(e, Interrupted):
             return 128 + int(e.signal)
         return EXIT_RUN
-    for w in res.attrs.get("warnings_list", []):
+    for w in res.flexdyn.warnings:
         print(f"warning: {w}", file=sys.stderr)
-    s = res.attrs["stats"]
+    s = res.flexdyn.stats
     static = res.attrs.get("analysis") == "static"
     if not args.quiet:
         if static:

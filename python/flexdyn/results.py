@@ -17,7 +17,9 @@ import numpy as np
 import xarray as xr
 
 from . import _core
+from .accessor import FlexdynAccessor  # noqa: F401  (registers `ds.flexdyn`)
 from .builder import Model, load
+from .channels import channel_attrs, global_attrs
 from .fields import FieldLayout
 from .storage import AppendOnlyNetcdf, OutputError
 
@@ -30,6 +32,15 @@ FLUSH_WALL_S = 1.0
 MAX_IN_MEMORY_BYTES = 4 * 2**30
 #: Samples held back from the file beyond this many bytes are written at once.
 PENDING_BYTES = 16 * 2**20
+#: Results files up to this size are read into memory when a run returns (the file is not
+#: held open); larger ones are read lazily (close the dataset, or let it go, to release it).
+LOAD_BYTES = 512 * 2**20
+
+#: The record dimension's coordinate: CF attributes.
+_DIM_ATTRS = {
+    "time": {"units": "s", "standard_name": "time", "long_name": "time", "axis": "T"},
+    "load_factor": {"units": "1", "long_name": "load factor (fraction of the full loads)"},
+}
 
 
 def model_data(model) -> dict:
@@ -51,8 +62,10 @@ def static_model_data(model, load_steps: int | None = None) -> dict:
 
 
 def _dataset(times, values, names, units, attrs, dim="time", dim_units="s") -> xr.Dataset:
-    data = {n: (dim, values[:, j], {"units": u}) for j, (n, u) in enumerate(zip(names, units))}
-    return xr.Dataset(data, coords={dim: (dim, times, {"units": dim_units})}, attrs=attrs)
+    """Channels as variables over `dim`; `units` (and `dim_units`) are units or attribute dicts."""
+    as_attrs = lambda u: dict(u) if isinstance(u, dict) else {"units": u}
+    data = {n: (dim, values[:, j], as_attrs(u)) for j, (n, u) in enumerate(zip(names, units))}
+    return xr.Dataset(data, coords={dim: (dim, times, as_attrs(dim_units))}, attrs=attrs)
 
 
 def _progress(sim, start):
@@ -122,9 +135,11 @@ def simulate(
     columns = len(names) + (layout.width() if layout else 0)
     if out is None:
         _check_in_memory_size(data["simulation"], columns)
+    analysis = "static" if sim.is_static else "dynamic"
     attrs = {
+        **global_attrs(data, analysis, sim.scheme, _version()),
         "model": data.get("name") or "",
-        "analysis": "static" if sim.is_static else "dynamic",
+        "analysis": analysis,
         "scheme": sim.scheme,
         "dt": sim.dt,
         "flexdyn_model": json.dumps(data),
@@ -132,7 +147,9 @@ def simulate(
     }
     if layout:
         attrs["flexdyn_topology"] = json.dumps(layout.topology)
-    dim, dim_units = ("load_factor", "1") if sim.is_static else ("time", "s")
+    units = channel_attrs(names, units, data.get("sensors", []))
+    dim = "load_factor" if sim.is_static else "time"
+    dim_units = _DIM_ATTRS[dim]
     writer = None
     if out is not None:
         arrays, dims = layout.netcdf(dim) if layout else ((), {})
@@ -143,13 +160,25 @@ def simulate(
             run.loop(stop)
         finally:
             run.close()
-    ds = xr.open_dataset(out) if writer else run.dataset(names, units, attrs, dim, dim_units)
-    ds.attrs["stats"] = run.stats
-    ds.attrs["warnings_list"] = list(sim.warnings)
+    ds = _read_back(Path(out)) if writer else run.dataset(names, units, attrs, dim, dim_units)
     if run.error is not None:
         run.error.results = ds
         raise run.error
     return ds
+
+
+def _version() -> str:
+    from . import __version__
+
+    return __version__
+
+
+def _read_back(path: Path) -> xr.Dataset:
+    """A run's results file as a dataset: in memory (the file closed) up to LOAD_BYTES, else
+    lazily."""
+    if path.stat().st_size <= LOAD_BYTES:
+        return xr.load_dataset(path)
+    return xr.open_dataset(path)
 
 
 def _number(key, v):

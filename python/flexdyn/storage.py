@@ -97,7 +97,9 @@ class AppendOnlyNetcdf:
     """A NetCDF classic file with one unlimited dimension and one f8 variable per channel,
     plus optional `arrays` (see ArrayVariable) over `dimensions` (name → size).
 
-    `path` is created (or replaced); `names`/`units` are the channels; `attrs` global
+    `path` is created (or replaced by a new file: whoever still reads the old one keeps
+    reading it); `names` are the channels and `units` their units or, as dicts, all their
+    attributes (`dim_units` likewise for the record dimension's coordinate); `attrs` global
     attributes. `append(times, values[n, columns])` adds records durably, the columns being
     the channels and then each record array flattened, in order; `finish(attrs)` adds final
     global attributes. Raises OutputError naming the file if it cannot be written.
@@ -120,6 +122,10 @@ class AppendOnlyNetcdf:
         self.record_start = self.data_start + sum(len(b) for _, b in self.fixed_data)
         self.record_bytes = 8 * len(self.names) + sum(self._vsize(v) for v in self.record_arrays)
         try:
+            # A new file, not the old one truncated: a dataset still reading the last run's
+            # file (lazily) keeps its data rather than seeing this run's appear under it.
+            with contextlib.suppress(FileNotFoundError, IsADirectoryError):
+                os.unlink(self.path)
             self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o644)
         except OSError as e:
             raise OutputError(e.errno, f"cannot create the results file {self.path}: {e.strerror}") from e
@@ -150,7 +156,8 @@ class AppendOnlyNetcdf:
             start += len(data)
         offset = getattr(self, "record_start", 0)
         for n, u in zip(self.names, self.units):
-            out.append(_name(n) + struct.pack(">ii", 1, 0) + _attributes({"units": u}))
+            var_attrs = u if isinstance(u, dict) else {"units": u}
+            out.append(_name(n) + struct.pack(">ii", 1, 0) + _attributes(var_attrs))
             # nc_type, vsize (one record of this variable), begin (64-bit offset)
             out.append(struct.pack(">iiq", _DOUBLE, 8, offset))
             offset += 8
