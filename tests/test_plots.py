@@ -146,3 +146,54 @@ def test_mode_shapes_are_drawn(tmp_path):
     assert saved.returncode == 0, saved.stderr
     with xr.open_dataset(tmp_path / "m.nc") as written:
         assert written.sizes["mode"] == 2 and written["frequency"].attrs["units"] == "Hz"
+
+
+@pytest.fixture(scope="module")
+def static_and_dynamic(tmp_path_factory):
+    m = strip_alone()
+    d = tmp_path_factory.mktemp("mixed")
+    fd.solve_static(m, load_steps=2, out=d / "static.nc")
+    fd.simulate(m, t_end=0.01, out=d / "dyn.nc")
+    m.to_yaml(d / "model.yaml")
+    (d / "junk.nc").write_text("not a NetCDF file\n")
+    return d
+
+
+@pytest.mark.parametrize(
+    "args,says",
+    [
+        (
+            ["plot", "static.nc", "dyn.nc", "tip"],
+            "static.nc is a static result (along the load factor) and dyn.nc a dynamic",
+        ),
+        (["compare", "dyn.nc", "static.nc", "--sensors", "tip.z"], "plot them separately"),
+        (["plot", "model.yaml", "tip"], "model.yaml is a model file: run it first"),
+        (["compare", "model.yaml", "--sensors", "tip"], "model.yaml is a model file"),
+        (["plot", "junk.nc", "tip"], "junk.nc is not a results file"),
+        (["plot", "missing.nc", "tip"], "missing.nc: no such results file"),
+        (["plot", "static.nc", "nope"], "no channel or sensor `nope`"),
+        (["plot", "static.nc", "tip", "-o", "figure.jpg2"], "Format 'jpg2' is not supported"),
+        (["plot", "static.nc"], "give one or more results files"),
+    ],
+)
+def test_every_plot_input_gives_a_figure_or_a_one_line_error(
+    static_and_dynamic, monkeypatch, capsys, args, says
+):
+    from flexdyn.cli import main
+
+    monkeypatch.chdir(static_and_dynamic)
+    code = main(args)
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and err.startswith("error: "), err
+    assert says in err
+
+
+def test_static_and_dynamic_results_each_plot_alone_and_with_sensors_flag(
+    static_and_dynamic, monkeypatch, capsys
+):
+    from flexdyn.cli import main
+
+    monkeypatch.chdir(static_and_dynamic)
+    assert main(["plot", "static.nc", "--sensors", "tip", "-o", "s.png"]) == 0
+    assert main(["compare", "dyn.nc", "dyn.nc", "--sensors", "tip", "-o", "d.png"]) == 0
+    assert (static_and_dynamic / "s.png").is_file() and (static_and_dynamic / "d.png").is_file()

@@ -377,7 +377,16 @@ def _expand(args) -> int:
 def _plot_split(args) -> int:
     """`flexdyn plot A.nc [B.nc …] CHANNEL …`: the leading arguments ending in .nc are files."""
     files = [a for a in args.results if a.endswith(".nc")]
-    channels = [a for a in args.results if not a.endswith(".nc")]
+    channels = [a for a in args.results if not a.endswith(".nc")] + (args.sensors or [])
+    models = [
+        a for a in channels if Path(a).suffix.lower() in (".yaml", ".yml", ".json") and Path(a).is_file()
+    ]
+    if models:
+        print(
+            f"error: {models[0]} is a model file: run it first (flexdyn run {models[0]} -o results.nc), then plot the results",
+            file=sys.stderr,
+        )
+        return 2
     if not files or not channels:
         print("error: give one or more results files (.nc) and then channels or sensors", file=sys.stderr)
         return 2
@@ -468,6 +477,9 @@ def main(argv=None) -> int:
     pl.add_argument("--labels", nargs="+")
     pl.add_argument("--title")
     pl.add_argument("--overlay", action="store_true", help="all channels in one panel, with a legend")
+    pl.add_argument(
+        "--sensors", nargs="+", help="channels or sensors (as well as, or instead of, after the files)"
+    )
     pl.set_defaults(func=_plot_split)
     cp = sub.add_parser("compare", help="overlay results files (first solid, second dashed)")
     cp.add_argument("results", nargs="+", help="results files (.nc)")

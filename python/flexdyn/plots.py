@@ -48,9 +48,45 @@ def _aliases(names: list[str]) -> set[str]:
     return out
 
 
-def _axis(ds: xr.Dataset) -> tuple[str, str]:
-    """The independent variable: time, or the load factor of static results."""
-    return ("load_factor", "load factor") if "load_factor" in ds.dims else ("time", "time [s]")
+def _axis(ds: xr.Dataset, name: str) -> tuple[str, str]:
+    """The variable channel `name` runs along — time, or the load factor of static results —
+    and its axis label (the coordinate's long name and units)."""
+    dims = ds[name].dims
+    if len(dims) != 1:
+        raise ValueError(f"`{name}` is not a channel over time or load factor (it spans {', '.join(dims)})")
+    coord = ds[dims[0]]
+    what = coord.attrs.get("long_name") or dims[0].replace("_", " ")
+    units = coord.attrs.get("units", "")
+    return dims[0], f"{what} [{units}]" if units and units != "1" else what
+
+
+def _common_axis(files, sets, names) -> tuple[str, str]:
+    """The one axis every file's channels share; a one-line error when files differ (a static
+    result runs along the load factor, a dynamic one along time)."""
+    axes = [_axis(ds, names[0]) for ds in sets]
+    for f, (dim, _) in zip(files, axes):
+        if dim != axes[0][0]:
+            kind = lambda d: {
+                "load_factor": "a static result (along the load factor)",
+                "time": "a dynamic result (along time)",
+            }.get(d, f"along {d}")
+            raise ValueError(f"{files[0]} is {kind(axes[0][0])} and {f} {kind(dim)}: plot them separately")
+    return axes[0]
+
+
+def _open(path) -> xr.Dataset:
+    """A results file, or a one-line error saying what it is instead."""
+    p = Path(path)
+    if p.suffix.lower() in (".yaml", ".yml", ".json"):
+        raise ValueError(
+            f"{p} is a model file: run it first (flexdyn run {p} -o results.nc), then plot the results"
+        )
+    try:
+        return xr.open_dataset(p)
+    except OSError as e:
+        raise ValueError(f"{p}: cannot read it ({e.strerror or e})") from None
+    except ValueError:
+        raise ValueError(f"{p} is not a results file: it is not NetCDF") from None
 
 
 def _grid(n: int) -> tuple[int, int]:
@@ -82,8 +118,9 @@ def plot(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    sets = [xr.open_dataset(f) for f in files]
+    sets = []
     try:
+        sets.extend(_open(f) for f in files)
         names = _channels(sets[0], channels)
         for f, ds in zip(files[1:], sets[1:]):
             missing = [n for n in names if n not in ds.data_vars]
@@ -92,7 +129,8 @@ def plot(
         labels = labels or [ds.attrs.get("model") or Path(f).stem for f, ds in zip(files, sets)]
         if len(labels) != len(sets):
             raise ValueError(f"--labels: {len(labels)} labels for {len(sets)} results files")
-        fig = (_overlaid if overlay else _panels)(plt, sets, names, labels)
+        axis = _common_axis(files, sets, names)
+        fig = (_overlaid if overlay else _panels)(plt, sets, names, labels, axis)
         if title:
             fig.suptitle(title)
         fig.tight_layout()
@@ -105,12 +143,12 @@ def plot(
     return out
 
 
-def _panels(plt, sets, names, labels):
+def _panels(plt, sets, names, labels, axis):
     rows, cols = _grid(len(names))
     fig, axes = plt.subplots(
         rows, cols, sharex=True, figsize=(4.2 * cols + 1.5, 1.2 + 2.0 * rows), squeeze=False
     )
-    dim, xlabel = _axis(sets[0])
+    dim, xlabel = axis
     for ax, name in zip(axes.flat, names):
         for k, (ds, label) in enumerate(zip(sets, labels)):
             style = STYLES[k % len(STYLES)]
@@ -131,9 +169,9 @@ def _panels(plt, sets, names, labels):
     return fig
 
 
-def _overlaid(plt, sets, names, labels):
+def _overlaid(plt, sets, names, labels, axis):
     fig, ax = plt.subplots(figsize=(8, 4.8))
-    dim, xlabel = _axis(sets[0])
+    dim, xlabel = axis
     for j, name in enumerate(names):
         for k, (ds, label) in enumerate(zip(sets, labels)):
             tag = _label(ds, name) + (f" — {label}" if len(sets) > 1 else "")
