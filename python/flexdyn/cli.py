@@ -93,7 +93,7 @@ def _run(args) -> int:
             tolerance=args.tolerance,
             fields=args.fields,
             out=args.output,
-            progress=not args.quiet and sys.stderr.isatty(),
+            progress=False if args.quiet else None,
         )
     except (_core.SolverError, Interrupted) as e:
         _error(e)
@@ -349,7 +349,7 @@ def _sweep(args) -> int:
         executor=executor,
         workers=args.workers,
         summary=args.summary or (),
-        progress=not args.quiet and sys.stderr.isatty(),
+        progress=False if args.quiet else None,
         **settings,
     )
     failed = result.failed()

@@ -9,7 +9,6 @@ a callback — leaves a file that opens and holds every sample up to the last fl
 from __future__ import annotations
 
 import json
-import sys
 import time
 from pathlib import Path
 
@@ -19,6 +18,7 @@ import xarray as xr
 from . import _core
 from .accessor import FlexdynAccessor  # noqa: F401  (registers `ds.flexdyn`)
 from .builder import Model, load
+from . import progress as progress_bar
 from .channels import channel_attrs, global_attrs
 from .fields import FieldLayout
 from .storage import AppendOnlyNetcdf, OutputError
@@ -68,23 +68,6 @@ def _dataset(times, values, names, units, attrs, dim="time", dim_units="s") -> x
     return xr.Dataset(data, coords={dim: (dim, times, as_attrs(dim_units))}, attrs=attrs)
 
 
-def _progress(sim, start):
-    """One line on stderr: simulated time, step size, Newton iterations per step, wall time and
-    the estimated time left."""
-    t, t_end = sim.t, sim.t_end
-    frac = t / t_end if t_end > 0 else 1.0
-    bar = "#" * int(30 * frac)
-    wall = time.perf_counter() - start
-    left = wall * (1 - frac) / frac if frac > 0 else float("nan")
-    s = sim.stats
-    per_step = s["newton_iterations"] / max(s["steps"], 1)
-    sys.stderr.write(
-        f"\r[{bar:<30}] {100 * frac:5.1f}%  t = {t:.4g} s  dt = {sim.last_dt:.2e} s  "
-        f"{per_step:.1f} it/step  wall {wall:.1f} s  left ~{left:.0f} s "
-    )
-    sys.stderr.flush()
-
-
 def simulate(
     model,
     *,
@@ -97,7 +80,7 @@ def simulate(
     tolerance: float | None = None,
     fields: bool | None = None,
     out: str | Path | None = None,
-    progress: bool = False,
+    progress: bool | None = None,
     on_chunk=None,
 ) -> xr.Dataset:
     """Runs a model (a Model, a dict, or a YAML path) and returns its sensors as an
@@ -110,7 +93,9 @@ def simulate(
     `flexdyn.fields`). With `out`, samples go to
     disk chunk by chunk and are not kept in memory: the returned dataset reads the file
     lazily, so memory stays flat however long the run. `on_chunk(times, values)` is called
-    for every chunk (live plots, custom sinks). If a step cannot be completed, SolverError is
+    for every chunk (live plots, custom sinks). `progress` shows a progress bar (tqdm) once
+    the run has taken 2 s; None (the default) shows it on a terminal and in Jupyter, not
+    under CI or when stderr goes to a file. If a step cannot be completed, SolverError is
     raised after every completed step has been written; the partial results are on the
     exception as `.results`.
     """
@@ -154,7 +139,9 @@ def simulate(
     if out is not None:
         arrays, dims = layout.netcdf(dim) if layout else ((), {})
         writer = AppendOnlyNetcdf(out, names, units, attrs, dim, dim_units, arrays, dims)
-    run = _Run(sim, writer, on_chunk, progress, layout)
+    # Asked for: at once; by default: once the run has taken DELAY_S.
+    delay = progress_bar.DELAY_S if progress is None else 0.0
+    run = _Run(sim, writer, on_chunk, delay if progress_bar.wanted(progress) else None, layout)
     with _StopRequests() as stop:
         try:
             run.loop(stop)
@@ -269,7 +256,10 @@ class _Run:
     """One run's loop: advance, hand samples to the file and the caller, stop cleanly."""
 
     def __init__(self, sim, writer, on_chunk, progress, layout=None):
-        self.sim, self.writer, self.on_chunk, self.progress = sim, writer, on_chunk, progress
+        self.sim, self.writer, self.on_chunk = sim, writer, on_chunk
+        # `progress`: the bar's delay (s), None for no bar.
+        end = 1.0 if sim.is_static else sim.t_end
+        self.progress = None if progress is None else progress_bar.Bar(end, sim.is_static, progress)
         self.chunks_t, self.chunks_v = [], []
         self.pending, self.pending_rows = [], 0
         self.start = self.last_flush = time.perf_counter()
@@ -314,14 +304,14 @@ class _Run:
                         sim.solve_static()
                     else:
                         chunk = CHUNK_STEPS * sim.dt
-                        if self.progress:  # 1 % of the run, so the line moves
+                        if self.progress:  # 1 % of the run, so the bar moves
                             chunk = min(chunk, 0.01 * sim.t_end)
                         sim.advance_to(sim.t + chunk, FLUSH_WALL_S)
                 except _core.SolverError as e:
                     self.error = e
                 self.drain(flush=self.error is not None or sim.done)
                 if self.progress:
-                    _progress(sim, self.start)
+                    self.progress.update(sim.load_factor if sim.is_static else sim.t, sim.stats, sim.last_dt)
                 if self.error is not None:
                     return
             if stop.signal is not None:
@@ -366,7 +356,7 @@ class _Run:
             finally:
                 self.writer.close()
         if self.progress:
-            sys.stderr.write("\n")
+            self.progress.close()
 
     def dataset(self, names, units, attrs, dim, dim_units):
         times = np.concatenate(self.chunks_t) if self.chunks_t else np.zeros(0)
