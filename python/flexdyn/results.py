@@ -16,9 +16,9 @@ import numpy as np
 import xarray as xr
 
 from . import _core
+from . import progress as progress_bar
 from .accessor import FlexdynAccessor  # noqa: F401  (registers `ds.flexdyn`)
 from .builder import Model, load
-from . import progress as progress_bar
 from .channels import channel_attrs, global_attrs
 from .fields import FieldLayout
 from .storage import AppendOnlyNetcdf, OutputError
