@@ -1,5 +1,8 @@
 """Type stubs of flexdyn's compiled core (`src/python.rs`). Units are SI; vectors inertial."""
 
+# pdoc evaluates the stubs at runtime, where `Simulation` is used before its definition ends.
+from __future__ import annotations  # noqa: PYI044
+
 from typing import Any, TypeAlias
 
 import numpy as np

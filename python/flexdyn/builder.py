@@ -274,7 +274,8 @@ class Model:
     def spherical(
         self, name: str, node1: str, node2: str, position: Vec3 | None = None, frame: Frame | None = None
     ) -> Model:
-        """Spherical joint: the nodes share a point (`position`, default node2's)."""
+        """Spherical joint: the nodes share a point (`position`, m, default node2's; in node
+        `frame`'s initial frame if given)."""
         return self._joint("spherical", name, node1, node2, position=position, frame=frame)
 
     def revolute(
@@ -648,6 +649,7 @@ class Model:
         return _plain(self.data)
 
     def to_json(self) -> str:
+        """The model as JSON text (the model file's content; `_core.parse_json` reads it)."""
         return json.dumps(self.to_dict(), allow_nan=False)
 
     def validate(self) -> Model:
@@ -692,6 +694,8 @@ class Model:
 
     @classmethod
     def from_dict(cls, data: dict) -> Model:
+        """A model from plain data as in a model file (`to_dict`'s inverse; copied, not
+        validated: `validate()` checks it)."""
         m = cls()
         m.data = copy.deepcopy(data)
         for key in ("nodes", "bodies", "beams", "joints", "loads", "sensors"):
@@ -700,12 +704,38 @@ class Model:
         return m
 
     def __repr__(self) -> str:
+        """A summary like `flexdyn info`'s, from the model as given (nothing compiled)."""
         d = self.data
-        return (
-            f"Model({d.get('name')!r}: {len(d['nodes'])} nodes, {len(d['bodies'])} bodies, "
-            f"{len(d.get('beams', []))} beams, "
-            f"{len(d['joints'])} joints, {len(d['sensors'])} sensors)"
-        )
+
+        def listed(items, describe=lambda i: i.get("name", "?"), most=6):
+            names = [describe(i) for i in items]
+            shown = ", ".join(names[:most]) + (f", … ({len(names) - most} more)" if len(names) > most else "")
+            return f"{len(names)}" + (f": {shown}" if names else "")
+
+        kinds: dict[str, int] = {}
+        for j in d.get("joints", []):
+            kinds[j.get("type", "?")] = kinds.get(j.get("type", "?"), 0) + 1
+        beam = lambda b: f"{b.get('name', '?')} ({b.get('elements', 1)}×p{b.get('order', 3)})"
+        sensor = lambda x: f"{x.get('name', '?')} ({x.get('type', '?')})"
+        sim = d.get("simulation", {})
+        units = {"t_end": " s", "dt": " s"}
+        keys = ("analysis", "scheme", "t_end", "dt", "step_control")
+        run = ", ".join(f"{k} {sim[k]}{units.get(k, '')}" for k in keys if k in sim)
+        g = d.get("gravity", [0, 0, 0])
+        lines = [
+            f"flexdyn.Model `{d.get('name', '')}` (gravity {list(g)} m/s²)",
+            f"  nodes    {listed(d.get('nodes', []))}",
+            f"  bodies   {listed(d.get('bodies', []))}",
+            f"  beams    {listed(d.get('beams', []), beam)}",
+            f"  joints   {len(d.get('joints', []))}"
+            + (": " + ", ".join(f"{k} {v}" for k, v in kinds.items()) if kinds else ""),
+            f"  loads    {listed(d.get('loads', []))}",
+            f"  sensors  {listed(d.get('sensors', []), sensor)}",
+            f"  run      {run or 'defaults'}",
+        ]
+        if d.get("patterns"):
+            lines.insert(7, f"  patterns {listed(d['patterns'])} (expanded when run)")
+        return "\n".join(lines)
 
 
 class Pattern(Model):

@@ -413,6 +413,8 @@ def _version_line() -> str:
 
 
 def main(argv=None) -> int:
+    """The `flexdyn` command: parses `argv` (default: the command line) and runs the
+    subcommand; returns its exit code (0 success, 2 a usage or model error, 3 a failed run)."""
     p = argparse.ArgumentParser(prog="flexdyn", description=__doc__)
     p.add_argument("--version", action="version", version=_version_line())
     sub = p.add_subparsers(dest="command", required=True)

@@ -57,6 +57,8 @@ class FieldLayout:
 
     @classmethod
     def from_core(cls, layout: dict | None) -> FieldLayout | None:
+        """The layout the compiled core describes (`Simulation.field_layout`), None if the
+        run records no fields."""
         return None if layout is None else cls(json.loads(layout["topology"]))
 
     @property
@@ -85,9 +87,11 @@ class FieldLayout:
         }
 
     def point_nodes(self) -> np.ndarray:
+        """The node index of each beam point, beam after beam (int32)."""
         return np.array([n for b in self.topology["beams"] for n in b["nodes"]], dtype=np.int32)
 
     def width(self) -> int:
+        """Columns the fields add to every sample (after the channels)."""
         sizes = self.sizes
         return sum(int(np.prod([sizes[d] for d in dims])) for _, dims, _, _ in _RECORD)
 

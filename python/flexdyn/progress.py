@@ -51,6 +51,7 @@ class Bar:
         self.bar.update(max(0.0, min(position, self.bar.total) - self.bar.n))
 
     def close(self):
+        """Ends the bar (left on screen)."""
         self.bar.close()
 
 

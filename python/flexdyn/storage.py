@@ -231,6 +231,7 @@ class AppendOnlyNetcdf:
         self.attrs = merged
 
     def close(self):
+        """Closes the file (what it holds stays valid: every append was synced)."""
         if self.fd is not None:
             os.close(self.fd)
             self.fd = None

@@ -79,9 +79,11 @@ class Sweep:
 
     @property
     def cases(self) -> list[dict]:
+        """Every case of the sweep: its overrides, results file and status (manifest entries)."""
         return self.manifest["cases"]
 
     def failed(self) -> list[dict]:
+        """The cases whose run failed (their manifest entries, with the error)."""
         return [c for c in self.cases if c["status"] == "failed"]
 
     def dataset(self, channels: Sequence[str] | None = None) -> xr.Dataset:
