@@ -52,3 +52,22 @@ def test_a_quick_run_stays_quiet_even_on_a_terminal(monkeypatch):
     monkeypatch.setattr(sys, "stderr", term)
     fd.simulate(strip_alone(), t_end=0.01)  # far under DELAY_S
     assert term.getvalue() == ""
+
+
+def test_a_sweep_counts_its_cases_and_its_runs_draw_no_bars_of_their_own(tmp_path, capfd):
+    from concurrent.futures import ThreadPoolExecutor
+
+    from test_sweep import FOUR_BAR
+
+    with ThreadPoolExecutor(2) as pool:
+        fd.sweep(
+            FOUR_BAR,
+            {"bodies.coupler_bar.mass": [0.6, 1.2, 2.4]},
+            tmp_path,
+            executor=pool,
+            t_end=0.05,
+            progress=True,
+        )
+    err = capfd.readouterr().err
+    assert "3/3" in err and "0 failed" in err
+    assert " s [" not in err  # no run's bar (simulated seconds) among the cases'

@@ -55,6 +55,13 @@ class Bar:
         self.bar.close()
 
 
+def cases(total: int, done: int, delay: float = DELAY_S):
+    """A bar counting a sweep's cases (`done` of `total` finished before it starts)."""
+    return _tqdm_class()(
+        total=total, initial=done, delay=delay, unit="case", file=sys.stderr, dynamic_ncols=True
+    )
+
+
 def _tqdm_class():
     if in_notebook():
         try:

@@ -16,7 +16,6 @@ from __future__ import annotations
 import itertools
 import json
 import os
-import sys
 import time
 from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
@@ -27,6 +26,7 @@ import numpy as np
 import xarray as xr
 
 from . import _core
+from . import progress as progress_bar
 
 MANIFEST = "manifest.json"
 
@@ -46,7 +46,7 @@ def _run_case(model: dict, overrides: dict, path: str, summary: list[str]) -> di
     start = time.perf_counter()
     record = {"status": "failed", "error": None, "wall_time_s": None, "summary": {}}
     try:
-        res = simulate(Model.from_dict(model).with_(overrides), out=path)
+        res = simulate(Model.from_dict(model).with_(overrides), out=path, progress=False)
         record["summary"] = _summary(res, summary)
         record["status"] = "done"
     except BaseException as e:
@@ -125,7 +125,7 @@ def sweep(
     executor: Executor | None = None,
     workers: int | None = None,
     summary: Sequence[str] = (),
-    progress: bool = False,
+    progress: bool | None = None,
     **settings,
 ) -> Sweep:
     """Runs `model` (a Model, dict or path) once per case into `folder`: `parameters` is a
@@ -135,7 +135,8 @@ def sweep(
     thread each, started fresh (spawn: in a script, call this under `if __name__ ==
     "__main__":`). `summary`: channels summarized in the manifest. `settings` are `simulate`'s
     `simulation` settings (t_end, scheme, output_dt, …) for every case, under the cases' own
-    overrides. Returns the `Sweep`."""
+    overrides. `progress`: a bar counting the cases (None, the default: on a terminal or in
+    Jupyter once the sweep has taken 2 s, not under CI). Returns the `Sweep`."""
     from .builder import Model
     from .results import model_data
 
@@ -227,7 +228,9 @@ def _dispatch(executor, folder, manifest, todo, data, summary, progress):
         executor.submit(_run_case, data, c["parameters"], str(folder / c["file"]), summary): c for c in todo
     }
     done = sum(c["status"] == "done" for c in manifest["cases"])
-    failed, start = 0, time.perf_counter()
+    failed = 0
+    delay = progress_bar.DELAY_S if progress is None else 0.0
+    bar = progress_bar.cases(len(manifest["cases"]), done, delay) if progress_bar.wanted(progress) else None
     for future in as_completed(futures):
         case = futures[future]
         try:
@@ -237,13 +240,8 @@ def _dispatch(executor, folder, manifest, todo, data, summary, progress):
         done += case["status"] == "done"
         failed += case["status"] == "failed"
         _write_manifest(folder, manifest)
-        if progress:
-            _progress(done, failed, len(manifest["cases"]), time.perf_counter() - start)
-    if progress:
-        sys.stderr.write("\n")
-
-
-def _progress(done: int, failed: int, total: int, wall: float):
-    bar = "#" * int(30 * (done + failed) / total)
-    sys.stderr.write(f"\r[{bar:<30}] {done}/{total} done, {failed} failed, wall {wall:.1f} s ")
-    sys.stderr.flush()
+        if bar is not None:
+            bar.set_postfix_str(f"{failed} failed", refresh=False)
+            bar.update(1)
+    if bar is not None:
+        bar.close()
