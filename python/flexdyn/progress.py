@@ -31,18 +31,14 @@ class Bar:
     iterations per step as a postfix."""
 
     def __init__(self, end: float, static: bool, delay: float = DELAY_S):
-        bar = _tqdm_class()
-        unit = "" if static else " s"
-        self.bar = bar(
+        unit = "" if static else " s"  # a load factor has none
+        self.bar = _tqdm_class()(
             total=end,
             delay=delay,
-            unit=unit.strip() or "load",
             bar_format="{l_bar}{bar}| {n:.4g}/{total:.4g}" + unit + " [{elapsed}<{remaining}{postfix}]",
             file=sys.stderr,
             dynamic_ncols=True,
-            leave=True,
         )
-        self.static = static
 
     def update(self, position: float, stats: dict, last_dt: float):
         """Moves the bar to `position` (s or load factor)."""
