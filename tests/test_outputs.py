@@ -146,9 +146,11 @@ def test_inconsistent_given_velocities_are_projected_and_reported():
     res = fd.simulate(m, scheme="ed", step_control="fixed", dt=1e-3, t_end=0.01)
     (w,) = res.flexdyn.warnings
     assert "`bob`" in w and "adjusted" in w and "give consistent velocities" in w
-    # The kinetic-energy-closest admissible velocity keeps the tangential part only.
+    # The kinetic-energy-closest admissible velocity keeps the tangential part only; the
+    # bob's spin, not given, follows the pin (ω = v/r) without pulling on its velocity.
     assert res["v.vx"].values[0] == pytest.approx(0.0, abs=1e-12)
-    assert res["v.vz"].values[0] == pytest.approx(-2.0 * 2.0 / (2.0 + 0.01), rel=1e-9)
+    assert res["v.vz"].values[0] == pytest.approx(-2.0, rel=1e-9)
+    assert res["v.wy"].values[0] == pytest.approx(2.0, rel=1e-9)
 
 
 def test_an_interrupted_run_keeps_a_valid_file(tmp_nc, monkeypatch):
@@ -192,6 +194,37 @@ def test_unspecified_velocities_follow_the_given_ones():
     assert res["vb.vx"].values[0] == pytest.approx(1.0, abs=1e-9)
     assert res["vb.vy"].values[0] == pytest.approx(1.0, abs=1e-9)
     assert res["vb.wz"].values[0] == pytest.approx(2.0, abs=1e-9)
+
+
+def test_a_spin_not_given_follows_the_joint_instead_of_kinking_the_beam():
+    # A collar clamped to a tumbling soft beam, given its velocity but not its spin: the spin
+    # is the beam section's (no warning), so the beam starts in its rigid tumble and the
+    # adaptive steps stay long. Giving the spin, zero, is inconsistent: the projection
+    # shares the change with the beam, kinking it at the collar, and the kink rings (the
+    # steps shrink ~100-fold to resolve it).
+    from test_sliding import SOFT
+
+    def collar(**spin):
+        m = fd.Model("clamped collar")
+        omega = np.array([0.0, 0.3, 0.5])
+        m.beam(
+            "beam", [0, 0, 0], [2.4, 0, 0], elements=12, section=SOFT,
+            velocity=list(-np.cross(omega, [1.2, 0, 0])), angular_velocity=list(omega),
+        )  # fmt: skip
+        m.node("collar", [1.2, 0, 0], velocity=[0, 0, 0], **spin)
+        m.body("c", "collar", mass=2.0, inertia=[0.01] * 3)
+        m.clamp("weld", "beam.18", "collar")
+        m.sensor("node_velocity", "v", node="collar").sensor("node_velocity", "s", node="beam.18")
+        return fd.simulate(m, t_end=0.05)
+
+    free = collar()
+    assert free.flexdyn.warnings == []
+    for k in ("wx", "wy", "wz", "vx", "vy", "vz"):
+        assert free[f"v.{k}"].values[0] == pytest.approx(free[f"s.{k}"].values[0], abs=1e-9)
+    assert free["v.wz"].values[0] == pytest.approx(0.5, abs=1e-9)
+    held = collar(angular_velocity=[0, 0, 0])
+    assert "`collar`" in held.flexdyn.warnings[0]
+    assert held.flexdyn.stats["steps"] > 20 * free.flexdyn.stats["steps"]
 
 
 def test_a_sensor_component_is_one_channel_named_after_the_sensor():

@@ -8,6 +8,7 @@ use crate::math::vec3::{M3, V3};
 use crate::model::check::Checker;
 use crate::model::{Model, ModelError, Orientation};
 use crate::state::NodeState;
+use crate::system::VelocityGiven;
 use std::collections::HashMap;
 
 /// Checks each node's position, velocities and orientation.
@@ -62,8 +63,8 @@ pub struct Lumped {
 pub struct NodeTable {
     pub names: Vec<String>,
     pub states: Vec<NodeState>,
-    /// Whether the model gave the node's initial velocity (else zero, to be completed).
-    pub velocity_given: Vec<bool>,
+    /// Which of the node's initial velocities the model gave (the rest zero, to be completed).
+    pub velocity_given: Vec<VelocityGiven>,
     /// The steady spin the node was given, if any.
     pub spin: Vec<Option<SteadySpin>>,
     pub lumped: Lumped,
@@ -84,14 +85,17 @@ impl NodeTable {
                 v: V3(n.velocity.unwrap_or_default()),
                 w: r.tmul_v(&V3(n.angular_velocity.unwrap_or_default())),
             };
-            let given = n.velocity.is_some() || n.angular_velocity.is_some();
+            let given = VelocityGiven {
+                translation: n.velocity.is_some(),
+                rotation: n.angular_velocity.is_some(),
+            };
             table.push(n.name.clone(), state, given);
         }
         table
     }
 
     /// Adds a node with no inertia and no spin; returns its index.
-    pub fn push(&mut self, name: String, state: NodeState, velocity_given: bool) -> usize {
+    pub fn push(&mut self, name: String, state: NodeState, velocity_given: VelocityGiven) -> usize {
         let a = self.states.len();
         self.index.insert(name.clone(), a);
         self.names.push(name);

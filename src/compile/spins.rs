@@ -6,6 +6,7 @@ use crate::elements::inertia::SteadySpin;
 use crate::math::vec3::V3;
 use crate::model::check::{Checker, NodeNames};
 use crate::model::Model;
+use crate::system::VelocityGiven;
 
 /// Checks each spin's axis, centre, rate and items.
 pub fn check(model: &Model, names: &NodeNames, c: &mut Checker) {
@@ -50,7 +51,7 @@ pub fn apply(model: &Model, beam_nodes: &[&[usize]], table: &mut NodeTable) {
             let n = &mut table.states[a];
             n.v = omega.cross(&(n.x - center));
             n.w = n.r.tmul_v(&omega);
-            table.velocity_given[a] = true;
+            table.velocity_given[a] = VelocityGiven::BOTH;
             table.spin[a] = Some(SteadySpin { omega, center });
         }
     }

@@ -5,7 +5,7 @@
 //! Both solve `min ½|V − V₀|²_W` subject to `B V + ∂C/∂t = 0` (at the initial configuration)
 //! for some weights W ([`super::velocity_projection`]), the beams' strain rates included.
 
-use super::velocity_projection::{VelocityProjection, Weighting};
+use super::velocity_projection::{Parts, VelocityProjection, Weighting};
 use crate::math::rotation::{exp_map, orthonormalize};
 use crate::math::vec3::V3;
 use crate::model::Model;
@@ -26,14 +26,19 @@ use crate::system::System;
 pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
     let n = sys.layout.n_nodes;
     let mut change = vec![0.0; n];
-    let given = &sys.velocity_given;
-    let none = vec![false; n];
-    let any_given = given.iter().any(|&g| g);
+    let given: Vec<Parts> = sys
+        .velocity_given
+        .iter()
+        .map(|g| [g.translation, g.rotation])
+        .collect();
+    let none = vec![[false; 2]; n];
+    let any_given = sys.velocity_given.iter().any(|g| g.any());
     if any_given {
-        // Nodes without given velocities follow; relative coordinates (joint rates, a
-        // sliding contact point's ζ̇) move first: a collar launched along a beam at rest
-        // slides along it rather than dragging the beam.
-        let follow: Vec<bool> = given.iter().map(|&g| !g).collect();
+        // Parts not given follow; relative coordinates (joint rates, a sliding contact
+        // point's ζ̇) move first: a collar launched along a beam at rest slides along it
+        // rather than dragging the beam, and one given only its velocity takes its spin
+        // from the joint rather than holding the beam's section still.
+        let follow: Vec<Parts> = given.iter().map(|g| [!g[0], !g[1]]).collect();
         let w = Weighting {
             fixed: &none,
             follow: &follow,
@@ -43,19 +48,20 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
             return change;
         };
         let x = p.solve(&p.rhs(sys, state, state.t));
-        for a in (0..n).filter(|&a| given[a]) {
-            change[a] = set_velocities(state, a, p.node(&x, a), sys.length_ref);
+        for a in 0..n {
+            change[a] = set_velocities(state, a, p.node(&x, a), given[a], sys.length_ref);
         }
     }
     let w = Weighting {
-        fixed: if any_given { given } else { &none },
+        fixed: if any_given { &given } else { &none },
         follow: &none,
         beams: true,
     };
     if let Some(mut p) = VelocityProjection::new(sys, state, &w) {
         let x = p.solve(&p.rhs(sys, state, state.t));
-        for a in (0..n).filter(|&a| !w.fixed[a]) {
-            change[a] = set_velocities(state, a, p.node(&x, a), sys.length_ref);
+        for a in 0..n {
+            let free = [!w.fixed[a][0], !w.fixed[a][1]];
+            set_velocities(state, a, p.node(&x, a), free, sys.length_ref);
         }
         for c in 0..p.lay.n_coords {
             state.coord_rates[c] = x[p.lay.coord_delta(c)];
@@ -64,13 +70,25 @@ pub fn project_initial_velocities(sys: &System, state: &mut State) -> Vec<f64> {
     change
 }
 
-/// Sets node `a`'s velocity and material angular velocity; returns the change (translational,
-/// or rotational times the model size `l`).
-fn set_velocities(state: &mut State, a: usize, (v, w): (V3<f64>, V3<f64>), l: f64) -> f64 {
+/// Sets the `parts` (translation, rotation) of node `a`'s velocity and material angular
+/// velocity; returns their change (translational, or rotational times the model size `l`).
+fn set_velocities(
+    state: &mut State,
+    a: usize,
+    (v, w): (V3<f64>, V3<f64>),
+    parts: Parts,
+    l: f64,
+) -> f64 {
     let nd = &mut state.nodes[a];
-    let change = (v - nd.v).norm().max(nd.r.mul_v(&(w - nd.w)).norm() * l);
-    nd.v = v;
-    nd.w = w;
+    let mut change = 0.0f64;
+    if parts[0] {
+        change = change.max((v - nd.v).norm());
+        nd.v = v;
+    }
+    if parts[1] {
+        change = change.max(nd.r.mul_v(&(w - nd.w)).norm() * l);
+        nd.w = w;
+    }
     change
 }
 
@@ -89,7 +107,7 @@ pub fn project_velocities_with(
     state: &mut State,
     adjust: impl FnOnce(&VelocityProjection, &State, &mut [f64]),
 ) -> bool {
-    let none = vec![false; sys.layout.n_nodes];
+    let none = vec![[false; 2]; sys.layout.n_nodes];
     let w = Weighting {
         fixed: &none,
         follow: &none,
@@ -116,7 +134,7 @@ pub fn project_velocities_with(
 /// it was typed with; a solve over a vanishing step needs them exact, since it would take
 /// the violation `C` out in that step, with forces ~ m C/h².
 pub fn project_positions(sys: &System, state: &mut State) {
-    let none = vec![false; sys.layout.n_nodes];
+    let none = vec![[false; 2]; sys.layout.n_nodes];
     let w = Weighting {
         fixed: &none,
         follow: &none,
@@ -160,7 +178,7 @@ pub fn make_consistent(model: &Model, system: &System, state: &mut State) -> Opt
         .iter()
         .map(|n| n.v.norm() + n.omega().norm() * system.length_ref)
         .fold(1e-12f64, f64::max);
-    let adjusted = |a: usize| system.velocity_given[a] && change[a] > 1e-9 * v_scale;
+    let adjusted = |a: usize| system.velocity_given[a].any() && change[a] > 1e-9 * v_scale;
     let changed: Vec<String> = (0..change.len())
         .filter(|&a| adjusted(a))
         .map(|a| format!("`{}`", system.node_names[a]))
@@ -268,7 +286,7 @@ pub fn drive_energy(sys: &System, state: &State, t_end: f64) -> f64 {
     if sys.drives.is_empty() {
         return 0.0;
     }
-    let none = vec![false; sys.layout.n_nodes];
+    let none = vec![[false; 2]; sys.layout.n_nodes];
     let w = Weighting {
         fixed: &none,
         follow: &none,

@@ -13,13 +13,16 @@ use crate::state::State;
 use crate::system::sparse::NewtonMatrix;
 use crate::system::{BeamInfo, System};
 
-/// How a projection weighs the nodes.
+/// Per node: a flag for its translation and one for its rotation.
+pub(super) type Parts = [bool; 2];
+
+/// How a projection weighs the nodes' translations and rotations.
 pub(super) struct Weighting<'a> {
-    /// Nodes whose velocities are held as they are in the state (already projected).
-    pub fixed: &'a [bool],
-    /// Nodes that follow the others: 1e-6 of their kinetic energy, a weight the refinement
+    /// Parts whose velocities are held as they are in the state (already projected).
+    pub fixed: &'a [Parts],
+    /// Parts that follow the others: 1e-6 of their kinetic energy, a weight the refinement
     /// then removes (a proximal iteration), so they take whatever the others impose.
-    pub follow: &'a [bool],
+    pub follow: &'a [Parts],
     /// Whether the beams' strain rates are penalised, weighted to dominate their kinetic
     /// energy: beams then move rigidly with their supports, or quasi-statically where the
     /// supports strain them, instead of lagging at rest behind them.
@@ -45,8 +48,8 @@ pub(super) struct VelocityProjection {
     /// Per node: the translational and rotational weights (mass, material inertia).
     pub mass: Vec<f64>,
     pub inertia: Vec<M3<f64>>,
-    fixed: Vec<bool>,
-    follow: Vec<bool>,
+    fixed: Vec<Parts>,
+    follow: Vec<Parts>,
 }
 
 /// Refinement stops when a correction is below this, relative to the solution.
@@ -101,30 +104,33 @@ impl VelocityProjection {
         }
     }
 
-    /// Whether unknown `i` is a held node's velocity.
+    /// Whether unknown `i` is a held node part's velocity.
     fn held(&self, i: usize) -> bool {
-        i < self.lay.n_nodes * 6 && self.fixed[i / 6]
+        i < self.lay.n_nodes * 6 && self.fixed[i / 6][(i % 6) / 3]
     }
 
-    /// Kinetic-energy weights (identity rows for held nodes), and the coordinate rates'
+    /// Kinetic-energy weights (identity rows for held parts), and the coordinate rates'
     /// negligible weight (relative coordinates take up what the nodes do not).
-    fn add_weights(&mut self, sys: &System, follow: &[bool]) {
+    fn add_weights(&mut self, sys: &System, follow: &[Parts]) {
         let lay = self.lay;
         for a in 0..lay.n_nodes {
-            let d = lay.node_delta(a);
-            if self.fixed[a] {
-                self.entries.extend((0..6).map(|k| (d + k, d + k, 1.0)));
-                continue;
-            }
-            let to = if follow[a] {
-                &mut self.proximal
-            } else {
-                &mut self.entries
-            };
-            for k in 0..3 {
-                to.push((d + k, d + k, self.mass[a]));
-                for m in k..3 {
-                    to.push((d + 3 + k, d + 3 + m, self.inertia[a].0[k][m]));
+            for part in 0..2 {
+                let d = lay.node_delta(a) + 3 * part;
+                if self.fixed[a][part] {
+                    self.entries.extend((0..3).map(|k| (d + k, d + k, 1.0)));
+                    continue;
+                }
+                let to = if follow[a][part] {
+                    &mut self.proximal
+                } else {
+                    &mut self.entries
+                };
+                for k in 0..3 {
+                    if part == 0 {
+                        to.push((d + k, d + k, self.mass[a]));
+                    } else {
+                        to.extend((k..3).map(|m| (d + k, d + m, self.inertia[a].0[k][m])));
+                    }
                 }
             }
         }
@@ -246,11 +252,14 @@ impl VelocityProjection {
         let mut rhs = vec![0.0; self.n];
         for (a, n) in state.nodes.iter().enumerate() {
             let d = lay.node_delta(a);
-            if self.fixed[a] {
-                rhs[d..d + 6].copy_from_slice(&velocities[d..d + 6]);
-            } else if !self.follow[a] {
-                n.v.scale_f(self.mass[a]).write_to(&mut rhs[d..]);
-                self.inertia[a].mul_v(&n.w).write_to(&mut rhs[d + 3..]);
+            let weighted = [n.v.scale_f(self.mass[a]), self.inertia[a].mul_v(&n.w)];
+            for (part, w) in weighted.iter().enumerate() {
+                let d = d + 3 * part;
+                if self.fixed[a][part] {
+                    rhs[d..d + 3].copy_from_slice(&velocities[d..d + 3]);
+                } else if !self.follow[a][part] {
+                    w.write_to(&mut rhs[d..]);
+                }
             }
         }
         for &(i, j, v) in &self.eliminated {
@@ -319,8 +328,8 @@ fn symmetric_matrix(n: usize, entries: &[(usize, usize, f64)]) -> Option<NewtonM
 }
 
 /// Kinetic-energy weights per node; massless nodes get a small weight so the problem stays
-/// regular; nodes in `follow` 1e-6 of theirs.
-fn weights(sys: &System, follow: &[bool]) -> (Vec<f64>, Vec<M3<f64>>) {
+/// regular; parts in `follow` 1e-6 of theirs.
+fn weights(sys: &System, follow: &[Parts]) -> (Vec<f64>, Vec<M3<f64>>) {
     let n = sys.layout.n_nodes;
     let floor = 1e-8 * sys.mass_ref;
     let mut mass = vec![0.0; n];
@@ -336,8 +345,10 @@ fn weights(sys: &System, follow: &[bool]) -> (Vec<f64>, Vec<M3<f64>>) {
         if inertia[a].max_abs() <= 0.0 {
             inertia[a] = M3::identity().scale_f(floor * sys.length_ref.powi(2));
         }
-        if follow[a] {
+        if follow[a][0] {
             mass[a] *= 1e-6;
+        }
+        if follow[a][1] {
             inertia[a] = inertia[a].scale_f(1e-6);
         }
     }

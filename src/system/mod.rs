@@ -115,8 +115,9 @@ pub struct System {
     /// Round-off of the largest elastic force a kernel computes (a section's `EA·e`, a
     /// spring's `k (q − q₀)`): a Newton residual below it is converged whatever the tolerance.
     pub force_roundoff: f64,
-    /// Per node: whether the model gave its initial velocity (else zero, to be completed).
-    pub velocity_given: Vec<bool>,
+    /// Per node: which of its initial velocities the model gave (the rest are zero, to be
+    /// completed by the joints).
+    pub velocity_given: Vec<VelocityGiven>,
     /// Per node whose mass was moved to an internal centre-of-mass node: that node and the
     /// offset (carrier triad).
     pub cm_node: Vec<Option<(usize, V3<f64>)>>,
@@ -271,5 +272,34 @@ impl System {
                 )
             }
         }
+    }
+}
+
+/// Which of a node's initial velocities the model gave: its velocity (translation) and its
+/// angular velocity (rotation). A part not given is completed from the joints (a collar
+/// launched along a spinning beam takes the beam's spin), not held at zero.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct VelocityGiven {
+    pub translation: bool,
+    pub rotation: bool,
+}
+
+impl VelocityGiven {
+    pub const BOTH: VelocityGiven = VelocityGiven {
+        translation: true,
+        rotation: true,
+    };
+
+    /// Whether part `k` (0 translation, 1 rotation) was given.
+    pub fn part(self, k: usize) -> bool {
+        if k == 0 {
+            self.translation
+        } else {
+            self.rotation
+        }
+    }
+
+    pub fn any(self) -> bool {
+        self.translation || self.rotation
     }
 }

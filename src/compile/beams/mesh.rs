@@ -11,6 +11,7 @@ use crate::compile::nodes::{Lumped, NodeTable};
 use crate::math::vec3::{M3, V3};
 use crate::model::Beam;
 use crate::state::NodeState;
+use crate::system::VelocityGiven;
 
 /// One element before numbering of unknowns: its nodes, Gauss points and initial history.
 pub struct MeshedElement {
@@ -173,7 +174,13 @@ fn place_nodes(
             v,
             w: r.tmul_v(&omega),
         };
-        let given = b.velocity.is_some() || b.angular_velocity.is_some();
+        // A beam's velocities are a rigid motion: given whole, or not at all.
+        let moving = b.velocity.is_some() || b.angular_velocity.is_some();
+        let given = if moving {
+            VelocityGiven::BOTH
+        } else {
+            VelocityGiven::default()
+        };
         ids.push(table.push(name, state, given));
     }
     ids
