@@ -113,14 +113,14 @@ impl VelocityProjection {
     /// negligible weight (relative coordinates take up what the nodes do not).
     fn add_weights(&mut self, sys: &System, follow: &[Parts]) {
         let lay = self.lay;
-        for a in 0..lay.n_nodes {
-            for part in 0..2 {
+        for (a, parts) in follow.iter().enumerate() {
+            for (part, &follows) in parts.iter().enumerate() {
                 let d = lay.node_delta(a) + 3 * part;
                 if self.fixed[a][part] {
                     self.entries.extend((0..3).map(|k| (d + k, d + k, 1.0)));
                     continue;
                 }
-                let to = if follow[a][part] {
+                let to = if follows {
                     &mut self.proximal
                 } else {
                     &mut self.entries
