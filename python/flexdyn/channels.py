@@ -14,9 +14,7 @@ import datetime as _dt
 import hashlib
 import json
 
-_AXES = {"x": "x", "y": "y", "z": "z", "1": "axis 1", "2": "axis 2", "3": "axis 3"}
-
-#: Component → (quantity, frame) shared by most sensors; `{a}` is the component's axis.
+#: Component → (quantity, frame) shared by most sensors.
 _VECTOR = {
     "x": ("position along x", "inertial"),
     "y": ("position along y", "inertial"),
@@ -155,7 +153,7 @@ def describe(component: str, sensor: dict) -> tuple[str, str | None]:
     quantity, frame = found
     if frame == "node":
         frame = f"node {sensor.get('reference', '')}".strip()
-    if kind == "joint_coordinate" and component in "xyz":
+    if kind == "joint_coordinate" and component in ("x", "y", "z"):
         quantity = "contact point " + quantity
     return quantity, frame
 
