@@ -291,3 +291,22 @@ def test_ed_decoupled_factors_back_off_where_they_do_not_serve():
     m.simulation(tolerance=1e-3)
     stats = fd.simulate(m).flexdyn.stats
     assert stats["factorizations"] < 1.9 * stats["steps"], stats
+
+
+def test_a_spinning_body_reads_as_steady_whatever_the_step_size():
+    # A jackscrew's nut (0.1 kg·m²) lifted 0.1 m by a smooth drive spins up to ~190 rad/s.
+    # The error indicator's step-mean angular velocity takes the exact angle turned: Cayley's
+    # 2 tan(θ/2) read a steady spin as faster the longer the step, so every change of step
+    # size looked like an acceleration (EP: 1443 steps, 267 rejected; now ~120, none).
+    # (ED's own jump at a change of step size has the same origin in its rotation
+    # parameters and still limits its steps here.)
+    m = fd.Model("jack", gravity=[0, 0, -9.81])
+    m.node("nut", [0, 0, 0]).body("load", "nut", mass=50.0, inertia=[0.1] * 3)
+    pitch = 0.005 / (2 * np.pi)  # m/rad
+    m.screw("thread", "ground", "nut", axis=[0, 0, 1], pitch=pitch, drive_delta="0.1*smoothstep(0, 1, t)")
+    m.sensor("joint_coordinate", "q", joint="thread")
+    m.simulation(t_end=1.0, scheme="ep")
+    res = fd.simulate(m)
+    s = res.flexdyn.stats
+    assert s["rejected"] <= 0.02 * s["steps"] and s["steps"] < 300, s
+    assert res["q.delta"].values[-1] == pytest.approx(0.1, rel=1e-9)
