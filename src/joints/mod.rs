@@ -993,37 +993,44 @@ mod kernel_tests {
     /// `−4/9` of them on the j-rows' increment columns and `1/9` on their jump columns; nothing
     /// else. Every law, to a node and to the ground, at a generic state with loaded
     /// multipliers.
+    /// What an ED unknown is: an increment, a jump, a multiplier or a multiplier's jump.
+    #[derive(Clone, Copy, PartialEq)]
+    enum Kind {
+        Delta,
+        Jump,
+        Lambda,
+        LambdaD,
+    }
+
+    /// Each ED unknown's kind and its EP twin, for two nodes, `nq` coordinates, `nr` rows.
+    fn ed_twins(ed: &Layout, ep: &Layout, nq: usize, nr: usize) -> Vec<(Kind, usize)> {
+        let mut twin = vec![(Kind::Delta, 0); ed.n_unknowns()];
+        for a in 0..2 {
+            for c in 0..6 {
+                twin[ed.node_delta(a) + c] = (Kind::Delta, ep.node_delta(a) + c);
+                twin[ed.node_jump(a) + c] = (Kind::Jump, ep.node_delta(a) + c);
+            }
+        }
+        for c in 0..nq {
+            twin[ed.coord_delta(c)] = (Kind::Delta, ep.coord_delta(c));
+            twin[ed.coord_jump(c)] = (Kind::Jump, ep.coord_delta(c));
+        }
+        for r in 0..nr {
+            twin[ed.mult(r)] = (Kind::Lambda, ep.mult(r));
+            twin[ed.mult_jump(r)] = (Kind::LambdaD, ep.mult(r));
+        }
+        twin
+    }
+
     #[test]
     fn decoupled_surrogate_is_the_ep_tangent_mapped() {
         let state = generic_state();
-        #[derive(Clone, Copy, PartialEq)]
-        enum Kind {
-            Delta,
-            Jump,
-            Lambda,
-            LambdaD,
-        }
         for law in laws() {
             for ground in [false, true] {
                 let (nq, nr) = (law.n_coords(), law.n_rows());
                 let ed = Layout::new(Scheme::Ed, 2, nq, nr);
                 let ep = Layout::new(Scheme::Ep, 2, nq, nr);
-                // Each ED unknown's kind and its EP twin.
-                let mut twin = vec![(Kind::Delta, 0); ed.n_unknowns()];
-                for a in 0..2 {
-                    for c in 0..6 {
-                        twin[ed.node_delta(a) + c] = (Kind::Delta, ep.node_delta(a) + c);
-                        twin[ed.node_jump(a) + c] = (Kind::Jump, ep.node_delta(a) + c);
-                    }
-                }
-                for c in 0..nq {
-                    twin[ed.coord_delta(c)] = (Kind::Delta, ep.coord_delta(c));
-                    twin[ed.coord_jump(c)] = (Kind::Jump, ep.coord_delta(c));
-                }
-                for r in 0..nr {
-                    twin[ed.mult(r)] = (Kind::Lambda, ep.mult(r));
-                    twin[ed.mult_jump(r)] = (Kind::LambdaD, ep.mult(r));
-                }
+                let twin = ed_twins(&ed, &ep, nq, nr);
                 let sides = generic_sides(ground);
                 let kernel = |layout: &Layout| {
                     JointKernel::new("j".into(), law.clone(), sides, (0..nq).collect(), 0, layout)
