@@ -111,9 +111,10 @@ def test_ed_energy_never_increases_and_loss_is_the_jump_energy(model):
 @pytest.mark.parametrize("scheme", ["ed", "ep"])
 def test_the_energy_balance_at_default_settings_is_the_newton_tolerance_not_a_drift(scheme):
     """The README's statement of `energy.balance`: each step's identity holds to the Newton
-    tolerance, so at default settings the balance stays ≤ 1e-10 of the energy over tens of
-    thousands of steps (heavy top, 20 s: ED 1.3e-7 J in 28 000 steps, EP 1.5e-10 J of 5.4 kJ),
-    and a tighter tolerance brings it down (ED at 1e-12: 2.3e-9 J)."""
+    tolerance, so at default settings the balance stays ≤ 1e-10 of the energy over a hundred
+    thousand steps (heavy top, 20 s, 127 000 steps: ED 2.7e-9 J, EP 4.9e-10 J of 5.4 kJ),
+    and it follows that tolerance (ED at 1e-8: 2.1e-6 J; at the default it is near the
+    round-off of 127 000 steps, so a tighter one cannot show)."""
 
     def run(**tol):
         m = fd.load(ROOT / "examples" / "heavy_top.yaml")
@@ -125,5 +126,5 @@ def test_the_energy_balance_at_default_settings_is_the_newton_tolerance_not_a_dr
     balance, energy = run()
     assert balance < 1e-10 * energy
     if scheme == "ed":
-        tight, _ = run(newton_tol=1e-12)
-        assert tight < balance / 10
+        loose, _ = run(newton_tol=1e-8)
+        assert loose > 100 * balance
