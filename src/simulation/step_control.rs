@@ -420,7 +420,10 @@ mod tests {
             // The direct form loses digits to cancellation below 1e-3 (ε/x²); the series
             // loses its x⁶ term above it: each is the reference where it is exact.
             let reference = if x < 0.01 { series } else { direct };
-            assert!((cayley_excess(x) - reference).abs() <= 1e-9 * reference, "{x}");
+            assert!(
+                (cayley_excess(x) - reference).abs() <= 1e-9 * reference,
+                "{x}"
+            );
         }
         assert_eq!(cayley_excess(1.6), f64::INFINITY);
     }
