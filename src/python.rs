@@ -452,6 +452,11 @@ impl PySimulation {
         d.set_item("halvings", s.halvings)?;
         d.set_item("rejected", s.rejected)?;
         d.set_item("over_tolerance", s.over_tolerance)?;
+        // Accepted adaptive steps by what set their size (the indicator's largest term).
+        let [motion, spin, jumps] = s.steps_set_by;
+        d.set_item("steps_set_by_motion", motion)?;
+        d.set_item("steps_set_by_spin", spin)?;
+        d.set_item("steps_set_by_jumps", jumps)?;
         d.set_item("linear_solves", s.linear_solves)?;
         d.set_item("dt_smallest", s.dt_smallest)?;
         d.set_item("dt_largest", s.dt_largest)?;

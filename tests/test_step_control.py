@@ -3,6 +3,8 @@
 k·output_dt whatever the steps."""
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -312,9 +314,37 @@ def test_a_spinning_body_is_stepped_for_its_spin_rate(scheme):
     res = fd.simulate(m)
     s = res.flexdyn.stats
     assert s["rejected"] <= 0.01 * s["steps"], s
+    # The stats say what set the steps: the spin, nearly all of them (the first few, from
+    # rest, by the motion), and every accepted step is counted once.
+    assert s["steps_set_by_spin"] > 0.95 * s["steps"], s
+    assert s["steps_set_by_motion"] + s["steps_set_by_spin"] + s["steps_set_by_jumps"] == s["steps"]
     assert res["q.delta"].values[-1] == pytest.approx(0.1, rel=1e-9)
     t = res.time.values
     spin = 0.1 * 6 * t * (1 - t) / pitch  # the drive's rate over the pitch
     # Measured 1.9e-4 (EP) and 1.1e-4 (ED) of the peak: a few tolerances, as for any
     # velocity at the default tolerance (the indicator aims at 0.6 of it per step).
     assert np.abs(res["nut_velocity.wz"].values - spin).max() < 5e-4 * spin.max()
+
+
+def test_the_cli_says_when_a_spin_sets_the_steps(tmp_path):
+    m = fd.Model("spinning wheel")
+    m.node("hub", [0, 0, 0]).body("wheel", "hub", mass=5.0, inertia=[0.05, 0.05, 0.1])
+    m.revolute("axle", "ground", "hub", axis=[0, 0, 1], drive="100*t")  # 100 rad/s steady
+    m.simulation(t_end=0.1)
+    m.to_yaml(tmp_path / "wheel.yaml")
+    run = subprocess.run(
+        [sys.executable, "-m", "flexdyn.cli", "run", str(tmp_path / "wheel.yaml")],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert run.returncode == 0, run.stderr
+    assert "note: a spin set the size of" in run.stdout, run.stdout
+    # A pendulum's steps are set by its motion: no note.
+    quiet = subprocess.run(
+        [sys.executable, "-m", "flexdyn.cli", "run", str(ROOT / "examples" / "pendulum.yaml")],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert quiet.returncode == 0 and "note: a spin" not in quiet.stdout, quiet.stdout

@@ -51,6 +51,9 @@ pub struct RunStats {
     /// Adaptive stepping: steps taken above the tolerance because a shorter one would not
     /// lower the error — an event such as a velocity jump, which no step resolves.
     pub over_tolerance: usize,
+    /// Adaptive stepping: accepted steps whose error indicator was set by the motion's
+    /// smoothness, by a spin's rate (Cayley parameters' (ωh)²/12), by ED's jumps.
+    pub steps_set_by: [usize; 3],
     /// Linear solves (Newton updates); with modified Newton more than factorizations.
     pub linear_solves: usize,
     /// Smallest and largest step taken, s.
@@ -76,6 +79,7 @@ impl Default for RunStats {
             pattern_rebuilds: 0,
             rejected: 0,
             over_tolerance: 0,
+            steps_set_by: [0; 3],
             linear_solves: 0,
             dt_smallest: f64::INFINITY,
             dt_largest: 0.0,

@@ -36,7 +36,7 @@ impl Simulation {
         end: &State,
         h: f64,
         report: &StepReport,
-    ) -> Result<f64, StepFailure> {
+    ) -> Result<(f64, SetBy), StepFailure> {
         let motion = if self.recent_means.len() < 2 {
             self.doubling_error(end, h)?
         } else {
@@ -46,12 +46,16 @@ impl Simulation {
         let spin = [0.0, self.spin_rate_error_energy(end, h)];
         let scales = self.energy_scales(end);
         // [translational, rotational] errors against scales [total, translational, rotational].
+        let tol = self.settings.tolerance;
+        let smoothness = (0..2)
+            .map(|k| relative((motion[k] - noise[k]).max(0.0), scales[k + 1], tol))
+            .fold(0.0, f64::max);
         let motion = (0..2)
             .map(|k| {
                 relative(
                     (motion[k] - noise[k]).max(0.0) + spin[k],
                     scales[k + 1],
-                    self.settings.tolerance,
+                    tol,
                 )
             })
             .fold(0.0, f64::max);
@@ -61,10 +65,21 @@ impl Simulation {
             .iter()
             .map(|&(e, scale)| relative(e.max(0.0), scale, self.settings.tolerance))
             .fold(0.0, f64::max);
-        Ok(match self.settings.scheme {
-            Scheme::Ep => motion,
-            Scheme::Ed => motion.max(jump),
-        })
+        let jump = if self.settings.scheme == Scheme::Ed {
+            jump
+        } else {
+            0.0
+        };
+        // What set the step: the largest term; the spin when its error energy is the larger
+        // part of `motion`'s (motion² = smoothness² + spin² within a kind).
+        let by = if jump > motion {
+            SetBy::Jumps
+        } else if motion > std::f64::consts::SQRT_2 * smoothness {
+            SetBy::Spin
+        } else {
+            SetBy::Motion
+        };
+        Ok((motion.max(jump), by))
     }
 
     /// The energy scales including the end state: total, translational and rotational
@@ -201,11 +216,11 @@ impl Simulation {
         loop {
             self.follow_contacts();
             let tried = self.step_with_friction(h).and_then(|step| {
-                let e = self.local_error(&step.state, step.h, &step.report)?;
-                Ok((step, e))
+                let (e, by) = self.local_error(&step.state, step.h, &step.report)?;
+                Ok((step, e, by))
             });
             match tried {
-                Ok((step, e)) => {
+                Ok((step, e, by)) => {
                     let (state, report, event) = (step.state, step.report, step.event);
                     // A friction event ends the step early: that is the step taken. The
                     // size after it comes from the size tried, not from the sliver a
@@ -221,6 +236,7 @@ impl Simulation {
                             self.stats.over_tolerance += 1;
                         }
                         self.accept(state, report, h);
+                        self.stats.steps_set_by[by as usize] += 1;
                         let factor = self.controller.accepted(e, &self.settings);
                         let keep = self.settings.modified_newton && Controller::holds(e, factor);
                         self.h_next = if keep {
@@ -296,6 +312,18 @@ impl Simulation {
             load_factor: None,
         }
     }
+}
+
+/// Which term of the error indicator was the largest on an accepted adaptive step
+/// (`RunStats::steps_set_by`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SetBy {
+    /// The motion's smoothness, h²v″/12 (or step doubling).
+    Motion = 0,
+    /// A spin's rate error under Cayley's parameters (`spin_rate_error_energy`).
+    Spin = 1,
+    /// ED's jump energies.
+    Jumps = 2,
 }
 
 /// `√(E_err/E)/tol`; zero while nothing moves or strains.
