@@ -47,28 +47,26 @@ impl Simulation {
         let scales = self.energy_scales(end);
         // [translational, rotational] errors against scales [total, translational, rotational].
         let tol = self.settings.tolerance;
-        let smoothness = (0..2)
-            .map(|k| relative((motion[k] - noise[k]).max(0.0), scales[k + 1], tol))
-            .fold(0.0, f64::max);
-        let motion = (0..2)
-            .map(|k| {
-                relative(
-                    (motion[k] - noise[k]).max(0.0) + spin[k],
-                    scales[k + 1],
-                    tol,
-                )
-            })
-            .fold(0.0, f64::max);
+        let judged = |spin: [f64; 2]| {
+            (0..2)
+                .map(|k| {
+                    relative(
+                        (motion[k] - noise[k]).max(0.0) + spin[k],
+                        scales[k + 1],
+                        tol,
+                    )
+                })
+                .fold(0.0, f64::max)
+        };
+        let (smoothness, motion) = (judged([0.0; 2]), judged(spin));
         // ED's jumps likewise: of translations, rotations, and strains (against all).
         let d = report.jump_energies;
-        let jump = [(d[0], scales[1]), (d[1], scales[2]), (d[2], scales[0])]
-            .iter()
-            .map(|&(e, scale)| relative(e.max(0.0), scale, self.settings.tolerance))
-            .fold(0.0, f64::max);
-        let jump = if self.settings.scheme == Scheme::Ed {
-            jump
-        } else {
-            0.0
+        let jump = match self.settings.scheme {
+            Scheme::Ep => 0.0,
+            Scheme::Ed => [(d[0], scales[1]), (d[1], scales[2]), (d[2], scales[0])]
+                .iter()
+                .map(|&(e, scale)| relative(e.max(0.0), scale, tol))
+                .fold(0.0, f64::max),
         };
         // What set the step: the largest term; the spin when its error energy is the larger
         // part of `motion`'s (motion² = smoothness² + spin² within a kind).
