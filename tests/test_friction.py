@@ -7,7 +7,7 @@ identity closes with it."""
 
 import numpy as np
 import pytest
-from test_sliding import SOFT, STIFF
+from test_sliding import STIFF, tumbling_soft_beam
 
 import flexdyn as fd
 
@@ -419,12 +419,7 @@ def test_a_clamped_collar_on_a_ringing_free_beam_stops_and_breaks_away_without_s
     # left every next step 40 % of its rate) and at 0.65 s (a breakaway placed between two
     # step-mean force ratios as if they were end values): steps shrank to dt_min and Newton
     # failed. Now stops are bracketed and breakaways placed between the steps' middles.
-    m = fd.Model("clamped collar on a free beam")
-    omega = np.array([0.0, 0.3, 0.5])
-    m.beam(
-        "beam", [0, 0, 0], [2.4, 0, 0], elements=12, section=SOFT,
-        velocity=list(-np.cross(omega, [1.2, 0, 0])), angular_velocity=list(omega),
-    )  # fmt: skip
+    m = tumbling_soft_beam("clamped collar on a free beam")
     # The collar's spin is given, zero, against the beam's: the start kinks the beam at the
     # collar, and the ring that follows is the hard case (left to follow, the spin would
     # be the beam's and the start smooth).

@@ -202,15 +202,10 @@ def test_a_spin_not_given_follows_the_joint_instead_of_kinking_the_beam():
     # adaptive steps stay long. Giving the spin, zero, is inconsistent: the projection
     # shares the change with the beam, kinking it at the collar, and the kink rings (the
     # steps shrink ~100-fold to resolve it).
-    from test_sliding import SOFT
+    from test_sliding import tumbling_soft_beam
 
     def collar(**spin):
-        m = fd.Model("clamped collar")
-        omega = np.array([0.0, 0.3, 0.5])
-        m.beam(
-            "beam", [0, 0, 0], [2.4, 0, 0], elements=12, section=SOFT,
-            velocity=list(-np.cross(omega, [1.2, 0, 0])), angular_velocity=list(omega),
-        )  # fmt: skip
+        m = tumbling_soft_beam("clamped collar")
         m.node("collar", [1.2, 0, 0], velocity=[0, 0, 0], **spin)
         m.body("c", "collar", mass=2.0, inertia=[0.01] * 3)
         m.clamp("weld", "beam.18", "collar")

@@ -22,6 +22,21 @@ SOFT = {
     "i22": 1e-3,
     "i33": 1e-3,
 }
+
+
+def tumbling_soft_beam(name):
+    """A model with a free 2.4 m soft beam (12 elements) tumbling rigidly at ω = (0, 0.3, 0.5)
+    rad/s about its middle, which stays at rest: the start of the collar-on-a-tumbling-beam
+    models (tests/test_outputs.py, tests/test_friction.py)."""
+    m = fd.Model(name)
+    omega = np.array([0.0, 0.3, 0.5])
+    m.beam(
+        "beam", [0, 0, 0], [2.4, 0, 0], elements=12, section=SOFT,
+        velocity=list(-np.cross(omega, [1.2, 0, 0])), angular_velocity=list(omega),
+    )  # fmt: skip
+    return m
+
+
 STIFF = {
     "ea": 1e9,
     "ga2": 5e8,
