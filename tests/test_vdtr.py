@@ -99,9 +99,13 @@ def test_paper_script_draws_the_figures_and_checks_the_statements(retracting):
     # The 20 s conversion's figures and claims table (docs/paper_examples.md) come from this
     # script; here it runs on the short retraction so that it cannot rot.
     figures = retracting / "figures"
+    # The 3-D view goes beside the figures too: by default it would overwrite the shipped
+    # docs/views/vdtr.html (the 20 s conversion) with this short run's.
+    views = retracting / "views"
     script = Path(__file__).resolve().parent.parent / "examples" / "vdtr" / "paper.py"
+    args = ["--out", str(retracting), "--figures", str(figures), "--views", str(views), "--reuse"]
     done = subprocess.run(
-        [sys.executable, str(script), "--out", str(retracting), "--figures", str(figures), "--reuse"],
+        [sys.executable, str(script), *args],
         capture_output=True,
         text=True,
         check=False,
@@ -112,6 +116,7 @@ def test_paper_script_draws_the_figures_and_checks_the_statements(retracting):
     table = (figures / "vdtr_claims.md").read_text()
     assert table.count("\n| ") == 8  # the header and 7 statements
     assert "jackscrew" in table and "Coriolis" in table
+    assert (views / "vdtr.html").stat().st_size > 0
 
 
 @pytest.mark.parametrize(("blades", "radius", "mesh"), [(4, 4.5, 1), (3, 5.0, 2)])
