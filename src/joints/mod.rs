@@ -120,6 +120,12 @@ pub trait ConstraintLaw {
     fn affine_in_translations(&self) -> bool {
         false
     }
+    /// The first of the law's three coincident-point rows `x₂ + R₂p₂ − x₁ − R₁p₁`, a spatial
+    /// vector, if it has them (modified Newton turns such rows with the bodies,
+    /// see [`SpatialRows`]). Checked by the law tests.
+    fn coincident_point_rows(&self) -> Option<usize> {
+        None
+    }
 }
 
 /// The joint types, each a law with its own module.
@@ -175,6 +181,9 @@ impl ConstraintLaw for JointLaw {
     fn affine_in_translations(&self) -> bool {
         dispatch!(self, j => j.affine_in_translations())
     }
+    fn coincident_point_rows(&self) -> Option<usize> {
+        dispatch!(self, j => j.coincident_point_rows())
+    }
 }
 
 /// One term of a velocity-level constraint row `Ċ = B V`: the coefficients of a node's
@@ -190,6 +199,16 @@ pub enum RateTerm {
         coord: usize,
         value: f64,
     },
+}
+
+/// A joint's three spatial constraint rows (a coincident-point vector, and its multipliers a
+/// force) and the nodes of its sides, side 2's first. Modified Newton turns them with the
+/// first of these nodes that it co-rotates (`integrator::corotation`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpatialRows {
+    /// The first of the three global constraint rows.
+    pub row: usize,
+    pub nodes: [Option<usize>; 2],
 }
 
 /// A joint of a system: between two nodes (or a node and the ground), or a sliding joint
@@ -210,6 +229,33 @@ macro_rules! each_joint {
 }
 
 impl Joint {
+    /// The nodes of the two sides (None: the ground); a sliding joint's follower and None.
+    pub fn nodes(&self) -> [Option<usize>; 2] {
+        let node = |s: &Side| match s {
+            Side::Node(a) => Some(*a),
+            Side::Ground { .. } => None,
+        };
+        match self {
+            Joint::Pair(j) => [node(&j.sides[0]), node(&j.sides[1])],
+            Joint::Sliding(s) => [node(&s.follower), None],
+        }
+    }
+    /// The joint's coincident-point rows (three spatial rows) and the nodes whose turn they
+    /// follow, side 2's first: a pair joint's law's, a sliding joint's contact rows (turning
+    /// with the follower).
+    pub fn spatial_rows(&self) -> Option<SpatialRows> {
+        let [one, two] = self.nodes();
+        match self {
+            Joint::Pair(j) => j.law.coincident_point_rows().map(|r| SpatialRows {
+                row: j.row0 + r,
+                nodes: [two, one],
+            }),
+            Joint::Sliding(s) => one.map(|_| SpatialRows {
+                row: s.row0,
+                nodes: [one, None],
+            }),
+        }
+    }
     pub fn name(&self) -> &str {
         each_joint!(self, j => &j.name)
     }
@@ -826,6 +872,30 @@ pub mod law_tests {
             let a = affine_defect(law);
             assert!(a < 1e-13, "not affine in the translations: {a:e}");
         }
+        if let Some(row) = law.coincident_point_rows() {
+            let p = point_rows_defect(law, row);
+            assert!(
+                p < 1e-14,
+                "rows {row}.. are not the point separation: {p:e}"
+            );
+        }
+    }
+
+    /// For a law that claims coincident-point rows at `row`: the largest difference between
+    /// those rows of `C` and `x₂ + R₂p₂ − x₁ − R₁p₁` over random states.
+    pub fn point_rows_defect<L: ConstraintLaw>(law: &L, row: usize) -> f64 {
+        let (nq, at) = (law.n_coords(), law.attachments());
+        let mut worst = 0.0f64;
+        for trial in 0..10 {
+            let s = random_state(trial as f64, nq, at);
+            let mut c = [0.0; MAX_ROWS];
+            law.value(&s, &mut c);
+            let d = kinematics::point(&s, 1) - kinematics::point(&s, 0);
+            for k in 0..3 {
+                worst = worst.max((c[row + k] - d.0[k]).abs());
+            }
+        }
+        worst
     }
 
     /// For a law that claims `affine_in_translations`: moving both sides' positions (not
@@ -872,6 +942,14 @@ pub mod law_tests {
             }
         }
         worst
+    }
+
+    #[test]
+    fn a_projection_is_not_a_point_separation() {
+        // The check must be able to fail: a prismatic joint's first rows project the
+        // separation on side 1's triad.
+        let law = prismatic::Prismatic { at: attachments() };
+        assert!(point_rows_defect(&law, 0) > 1e-3);
     }
 
     #[test]

@@ -45,6 +45,9 @@ impl ConstraintLaw for Revolute {
     fn affine_in_translations(&self) -> bool {
         true
     }
+    fn coincident_point_rows(&self) -> Option<usize> {
+        Some(0)
+    }
 }
 
 /// The two rows keeping the axes aligned, `e₃ᵏ·e₁ˡ = e₃ᵏ·e₂ˡ = 0` (eq. 11).

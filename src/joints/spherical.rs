@@ -33,6 +33,9 @@ impl ConstraintLaw for Spherical {
     fn affine_in_translations(&self) -> bool {
         true
     }
+    fn coincident_point_rows(&self) -> Option<usize> {
+        Some(0)
+    }
 }
 
 #[cfg(test)]

@@ -60,6 +60,9 @@ impl ConstraintLaw for Universal {
     fn affine_in_translations(&self) -> bool {
         true
     }
+    fn coincident_point_rows(&self) -> Option<usize> {
+        Some(0)
+    }
 }
 
 #[cfg(test)]
