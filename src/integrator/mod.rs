@@ -3,12 +3,14 @@
 //! drives, loads, dampers and constraints, and ED's jump dissipation).
 
 pub mod convergence;
+pub mod corotation;
 pub mod dense_output;
 mod ed_decoupled;
 mod load_response;
 pub mod predictor;
 
 use convergence::{inf_norm, Measure};
+use corotation::CoRotation;
 use ed_decoupled::DecoupledMatrix;
 pub use load_response::LoadResponse;
 
@@ -29,6 +31,18 @@ const STALE_ITERATIONS: f64 = 5.0;
 /// exact matrix's pay (its tangent and LU cost ~20 residual-only iterations with the
 /// decoupled system's back-substitution, against its own ~8).
 const DECOUPLED_ITERATIONS: f64 = 15.0;
+
+/// What the rate test asks of kept factors that contract too slowly.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Refresh {
+    /// They still pay.
+    No,
+    /// Fresh factors of the kind the step would take.
+    Fresh,
+    /// ED's exact matrix: the decoupled system's factors, kept, contract about as fast as
+    /// fresh ones did — its approximation, not their age, is what is slow.
+    Exact,
+}
 
 /// Which LU factors are in hand.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -168,6 +182,16 @@ pub struct Integrator {
     /// Whether the assembled tangent values are the exact Newton matrix (not the decoupled
     /// system's rows only).
     values_exact: bool,
+    /// Kept factors followed through the nodes' rotations since they were computed.
+    corotation: CoRotation,
+    /// ED: the contraction per iteration that the last fresh decoupled factors achieved over
+    /// the solve they were computed in, and where they started (distance, iteration).
+    decoupled_rate: Option<f64>,
+    decoupled_from: Option<(f64, usize)>,
+    /// Steps the factors in hand have served, and per kind (exact, decoupled) how many steps
+    /// recent factors served (a running mean): ED's exact factors pay only where they last.
+    served: usize,
+    lifetimes: [Option<f64>; 2],
 }
 
 impl Integrator {
@@ -255,6 +279,11 @@ impl Integrator {
             decoupled_backoff: 0,
             decoupled_misses: 0,
             values_exact: false,
+            corotation: CoRotation::new(sys),
+            decoupled_rate: None,
+            decoupled_from: None,
+            served: 0,
+            lifetimes: [None; 2],
         }
     }
 
@@ -456,7 +485,14 @@ impl Integrator {
     /// Applies the Newton update from the residual in `res` with the LU factors in hand (the
     /// update stays in `res`).
     fn back_substitute(&mut self) {
+        let turning = self.corotation.is_turning();
+        if turning {
+            self.corotation.to_factored(&mut self.res);
+        }
         self.solve_residual();
+        if turning {
+            self.corotation.from_factored(&mut self.res);
+        }
         self.solves += 1;
         for (y, d) in self.y.iter_mut().zip(self.res.iter()) {
             *y -= d;
@@ -684,13 +720,9 @@ impl Integrator {
         let mut fresh_update = false;
         let mut stalls = 0;
         self.factored_this_solve = false;
+        self.decoupled_from = None;
         for it in 0..=self.max_iter {
-            // Kept factors start a step that follows a converged one; a fresh tangent
-            // otherwise (the first step, after a failure, a new step size).
-            let mut reuse = self.factors_fit(ctx) && (it > 0 || converged_before);
-            if it == 0 {
-                self.started_stale = reuse;
-            }
+            let mut reuse = self.keep_factors(ctx, it, converged_before);
             let tangent = (!reuse).then(|| self.fresh_factors(ctx));
             self.assemble_for(sys, ctx, tangent);
             if ctx.is_static() {
@@ -706,6 +738,7 @@ impl Integrator {
             let judged = best.as_ref().filter(|_| fresh_update || stalls >= 2);
             let settled = small_update && fresh_update && self.settled(sys, &m, judged);
             if m.converged(sys, self.tol, judged) || settled {
+                self.note_decoupled_rate(m.distance(sys, self.tol), it);
                 if reuse && !settled {
                     // Modified Newton stops just below the tolerance (linear convergence,
                     // where full Newton overshoots it quadratically). One more update with
@@ -716,12 +749,9 @@ impl Integrator {
                 }
                 break;
             }
-            if reuse
-                && self.contraction_too_slow(sys, &m, [previous.as_ref(), before_previous.as_ref()])
-            {
-                self.prepare_fresh_tangent(sys, ctx);
-                reuse = false;
-            }
+            let recent = [previous.as_ref(), before_previous.as_ref()];
+            reuse = reuse && self.factors_still_pay(sys, ctx, &m, recent);
+            self.note_fresh_decoupled_start(sys, &m, it, fresh_update);
             if best.as_ref().is_none_or(|b| m.force < b.force) {
                 best = Some(m);
             }
@@ -742,15 +772,58 @@ impl Integrator {
         }
         self.check_contacts_on_beams(sys, ctx)?;
         self.last_converged = true;
+        self.served += 1;
         Ok(report)
+    }
+
+    /// Whether iteration `it` goes on with the factors in hand: kept factors start a step that
+    /// follows a converged one (followed through the nodes' rotations since they were
+    /// computed); a fresh tangent otherwise (the first step, after a failure, a new step size).
+    fn keep_factors(&mut self, ctx: &StepCtx, it: usize, converged_before: bool) -> bool {
+        let reuse = self.factors_fit(ctx) && (it > 0 || converged_before);
+        if it == 0 {
+            self.started_stale = reuse;
+            if reuse {
+                self.corotation.follow(ctx.state, &self.y);
+            }
+        }
+        reuse
+    }
+
+    /// The rate test on kept factors at iterate `m`: if they no longer pay, the tangent for
+    /// fresh ones is prepared (see [`Self::prepare_fresh_tangent`]) and `false` returned.
+    fn factors_still_pay(
+        &mut self,
+        sys: &System,
+        ctx: &StepCtx,
+        m: &Measure,
+        recent: [Option<&Measure>; 2],
+    ) -> bool {
+        let refresh = self.contraction_too_slow(sys, m, recent);
+        if refresh != Refresh::No {
+            self.prepare_fresh_tangent(sys, ctx, refresh == Refresh::Exact);
+        }
+        refresh == Refresh::No
+    }
+
+    /// ED: the first iterate after a fresh decoupled update is where those factors' rate is
+    /// measured from (see [`Self::note_decoupled_rate`]).
+    fn note_fresh_decoupled_start(&mut self, sys: &System, m: &Measure, it: usize, fresh: bool) {
+        if fresh
+            && self.factors == Factors::Decoupled
+            && self.factored_this_solve
+            && self.decoupled_from.is_none()
+        {
+            self.decoupled_from = Some((m.distance(sys, self.tol), it));
+        }
     }
 
     /// The kept factors no longer pay: the tangent at this iterate is assembled for fresh
     /// factors — the exact matrix's if the decoupled system's did not pay even fresh, and
     /// then, if that exact tangent is still the one assembled (iterations since assembled
     /// residuals only), it is factored at once without assembling again.
-    fn prepare_fresh_tangent(&mut self, sys: &System, ctx: &StepCtx) {
-        let missed = self.factors == Factors::Decoupled && self.factored_this_solve;
+    fn prepare_fresh_tangent(&mut self, sys: &System, ctx: &StepCtx, exact: bool) {
+        let missed = self.factors == Factors::Decoupled && (self.factored_this_solve || exact);
         if missed {
             self.decoupled_missed();
         }
@@ -821,14 +894,14 @@ impl Integrator {
         sys: &System,
         m: &Measure,
         [previous, before_previous]: [Option<&Measure>; 2],
-    ) -> bool {
+    ) -> Refresh {
         let Some(p) = previous else {
-            return false;
+            return Refresh::No;
         };
         // Below its round-off floor a residual stalls whatever the factors: the next stall
         // accepts the step (see `newton`); a fresh tangent would buy nothing.
         if m.force <= m.force_floor && m.constraints_hold(sys, self.tol, None) {
-            return false;
+            return Refresh::No;
         }
         let d = m.distance(sys, self.tol);
         let theta = d / p.distance(sys, self.tol).max(f64::MIN_POSITIVE);
@@ -848,7 +921,58 @@ impl Integrator {
         } else {
             STALE_ITERATIONS
         };
-        theta >= 0.9 || d.ln() > budget * (1.0 / theta).ln()
+        if theta < 0.9 && d.ln() <= budget * (1.0 / theta).ln() {
+            return Refresh::No;
+        }
+        // Kept decoupled factors about as fast as fresh ones were: refreshing them would not
+        // help (a rotor's blades at 1 ms steps refactored every step at the same ~0.2 per
+        // iteration); the exact matrix's factors, followed through the rotations, serve.
+        let kept_decoupled = self.factors == Factors::Decoupled && !fresh_decoupled;
+        // Their error swaps between row groups as fresh ones' does: judged over two iterations.
+        let theta2 = before_previous.map_or(theta, |b| {
+            theta.min((d / b.distance(sys, self.tol).max(f64::MIN_POSITIVE)).sqrt())
+        });
+        if kept_decoupled
+            && self.decoupled_rate.is_some_and(|r| theta2 <= 2.0 * r)
+            && self.exact_factors_last()
+        {
+            Refresh::Exact
+        } else {
+            Refresh::Fresh
+        }
+    }
+
+    /// Whether ED's exact factors have lasted (or are untried): at least 2.5 times as many
+    /// steps as decoupled ones, about their relative cost (tangent and LU: ~20 against ~9
+    /// residual-only iterations on the beam pendulum). Where contact windows move or the
+    /// configuration changes fast (a collar sliding on a tumbling beam) they last no longer.
+    fn exact_factors_last(&self) -> bool {
+        match self.lifetimes {
+            [Some(exact), decoupled] => exact >= 2.5 * decoupled.unwrap_or(1.0),
+            [None, _] => true,
+        }
+    }
+
+    /// Fresh factors replace those in hand: the steps these served join their kind's running
+    /// mean.
+    fn note_lifetime(&mut self) {
+        if self.factored_for.is_some() {
+            let k = (self.factors == Factors::Decoupled) as usize;
+            let served = self.served.max(1) as f64;
+            self.lifetimes[k] = Some(self.lifetimes[k].map_or(served, |l| 0.5 * (l + served)));
+        }
+        self.served = 0;
+    }
+
+    /// A step converged at distance `d` (in units of its tolerances) at iteration `it`: the
+    /// rate at which fresh decoupled factors of this solve contracted, if they served at least
+    /// two iterations.
+    fn note_decoupled_rate(&mut self, d: f64, it: usize) {
+        if let Some((d0, i0)) = self.decoupled_from.take() {
+            if self.factors == Factors::Decoupled && it >= i0 + 2 && d0 > 0.0 {
+                self.decoupled_rate = Some((d.max(1e-300) / d0).powf(1.0 / (it - i0) as f64));
+            }
+        }
     }
 
     /// Solves for the Newton update (with the kept factors, or factoring afresh) and
@@ -857,6 +981,8 @@ impl Integrator {
         if reuse {
             self.back_substitute();
         } else {
+            self.corotation.record(ctx.state, &self.y);
+            self.note_lifetime();
             self.solve_update(self.fresh_factors(ctx))
                 .map_err(|reason| step_failure(ctx, reason, true))?;
             self.factored_for = Some(ctx.h);
