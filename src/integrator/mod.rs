@@ -192,6 +192,8 @@ pub struct Integrator {
     /// recent factors served (a running mean): ED's exact factors pay only where they last.
     served: usize,
     lifetimes: [Option<f64>; 2],
+    /// ED: fresh factorizations of the same kind in a row.
+    streak: usize,
 }
 
 impl Integrator {
@@ -284,6 +286,7 @@ impl Integrator {
             decoupled_from: None,
             served: 0,
             lifetimes: [None; 2],
+            streak: 0,
         }
     }
 
@@ -426,6 +429,7 @@ impl Integrator {
             && !ctx.is_static()
             && !self.exact_for_step
             && self.decoupled_backoff == 0
+            && !self.exact_preferred()
         {
             Factors::Decoupled
         } else {
@@ -946,6 +950,27 @@ impl Integrator {
     /// steps as decoupled ones, about their relative cost (tangent and LU: ~20 against ~9
     /// residual-only iterations on the beam pendulum). Where contact windows move or the
     /// configuration changes fast (a collar sliding on a tumbling beam) they last no longer.
+    /// ED: whether fresh factors are the exact matrix's by choice — where decoupled ones last
+    /// about a step each (the beam pendulum at 10 ms steps: ~0.1 per iteration fresh, too slow
+    /// kept, 8.5 iterations per step) and exact ones, co-rotated, last at least 2.5 times as
+    /// long (their relative cost). Untried, they are tried where decoupled ones last at most
+    /// 1.5 steps; after 16 fresh factorizations of one kind the other is tried again (where
+    /// decoupled ones last at most 2 steps), so neither judgement goes stale. Only factors
+    /// replaced at the step size they were computed for count (see `note_lifetime`).
+    fn exact_preferred(&self) -> bool {
+        let [exact, Some(decoupled)] = self.lifetimes else {
+            return false;
+        };
+        let in_hand_exact = self.factors == Factors::Exact;
+        if self.streak >= 16 {
+            return !in_hand_exact && decoupled <= 2.0;
+        }
+        match exact {
+            Some(exact) => exact >= 2.5 * decoupled,
+            None => decoupled <= 1.5,
+        }
+    }
+
     fn exact_factors_last(&self) -> bool {
         match self.lifetimes {
             [Some(exact), decoupled] => exact >= 2.5 * decoupled.unwrap_or(1.0),
@@ -953,10 +978,16 @@ impl Integrator {
         }
     }
 
-    /// Fresh factors replace those in hand: the steps these served join their kind's running
-    /// mean.
-    fn note_lifetime(&mut self) {
-        if self.factored_for.is_some() {
+    /// Fresh factors of `kind` replace those in hand: the steps these served join their kind's
+    /// running mean if they were still `fit` for the step size (a factor dropped for a new h
+    /// says nothing about how long its kind lasts).
+    fn note_lifetime(&mut self, kind: Factors, fit: bool) {
+        self.streak = if kind == self.factors {
+            self.streak + 1
+        } else {
+            0
+        };
+        if fit {
             let k = (self.factors == Factors::Decoupled) as usize;
             let served = self.served.max(1) as f64;
             self.lifetimes[k] = Some(self.lifetimes[k].map_or(served, |l| 0.5 * (l + served)));
@@ -982,8 +1013,10 @@ impl Integrator {
             self.back_substitute();
         } else {
             self.corotation.record(ctx.state, &self.y);
-            self.note_lifetime();
-            self.solve_update(self.fresh_factors(ctx))
+            // The kind the tangent was assembled for, before the lifetimes change.
+            let kind = self.fresh_factors(ctx);
+            self.note_lifetime(kind, self.factors_fit(ctx));
+            self.solve_update(kind)
                 .map_err(|reason| step_failure(ctx, reason, true))?;
             self.factored_for = Some(ctx.h);
             self.factored_this_solve = true;
