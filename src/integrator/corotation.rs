@@ -206,11 +206,6 @@ impl CoRotation {
         self.apply(update, false);
     }
 
-    /// The joints' spatial rows.
-    pub fn spatial_rows(&self) -> &[SpatialRows] {
-        &self.spatial_rows
-    }
-
     /// Which nodes are co-rotated this step (tests, diagnostics).
     pub fn corotated(&self) -> &[bool] {
         &self.corotated
