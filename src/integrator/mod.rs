@@ -946,14 +946,10 @@ impl Integrator {
         }
     }
 
-    /// Whether ED's exact factors have lasted (or are untried): at least 2.5 times as many
-    /// steps as decoupled ones, about their relative cost (tangent and LU: ~20 against ~9
-    /// residual-only iterations on the beam pendulum). Where contact windows move or the
-    /// configuration changes fast (a collar sliding on a tumbling beam) they last no longer.
     /// ED: whether fresh factors are the exact matrix's by choice — where decoupled ones last
     /// about a step each (the beam pendulum at 10 ms steps: ~0.1 per iteration fresh, too slow
-    /// kept, 8.5 iterations per step) and exact ones, co-rotated, last at least 2.5 times as
-    /// long (their relative cost). Untried, they are tried where decoupled ones last at most
+    /// kept, 8.5 iterations per step) and exact ones, co-rotated, last long enough
+    /// ([`Self::exact_outlasts`]). Untried, they are tried where decoupled ones last at most
     /// 1.5 steps; after 16 fresh factorizations of one kind the other is tried again (where
     /// decoupled ones last at most 2 steps), so neither judgement goes stale. Only factors
     /// replaced at the step size they were computed for count (see `note_lifetime`).
@@ -961,21 +957,30 @@ impl Integrator {
         let [exact, Some(decoupled)] = self.lifetimes else {
             return false;
         };
-        let in_hand_exact = self.factors == Factors::Exact;
         if self.streak >= 16 {
-            return !in_hand_exact && decoupled <= 2.0;
+            return self.factors != Factors::Exact && decoupled <= 2.0;
         }
         match exact {
-            Some(exact) => exact >= 2.5 * decoupled,
+            Some(exact) => Self::exact_outlasts(exact, decoupled),
             None => decoupled <= 1.5,
         }
     }
 
+    /// Whether ED's exact factors have lasted (or are untried) against decoupled ones (one
+    /// step if untried): see [`Self::exact_outlasts`].
     fn exact_factors_last(&self) -> bool {
         match self.lifetimes {
-            [Some(exact), decoupled] => exact >= 2.5 * decoupled.unwrap_or(1.0),
+            [Some(exact), decoupled] => Self::exact_outlasts(exact, decoupled.unwrap_or(1.0)),
             [None, _] => true,
         }
+    }
+
+    /// Exact factors pay where they last at least 2.5 times as many steps as decoupled ones,
+    /// about their relative cost (tangent and LU: ~20 against ~9 residual-only iterations on
+    /// the beam pendulum). Where contact windows move or the configuration changes fast (a
+    /// collar sliding on a tumbling beam) they last no longer.
+    fn exact_outlasts(exact: f64, decoupled: f64) -> bool {
+        exact >= 2.5 * decoupled
     }
 
     /// Fresh factors of `kind` replace those in hand: the steps these served join their kind's
