@@ -306,6 +306,26 @@ def test_newton_stops_on_a_small_update_when_asked():
     assert np.abs(loose["angle.phi"].values - tight["angle.phi"].values).max() < 1e-5
 
 
+@pytest.mark.parametrize("scheme", ["ep", "ed"])
+def test_the_predictor_follows_the_last_steps_accelerations(scheme):
+    # A body thrown in free fall: both schemes are exact for a constant force, and from the
+    # second step on the predictor's second-order term (the last step's acceleration,
+    # integrator/predictor.rs) guesses each step exactly, so Newton finds it converged
+    # without an update. A first-order guess misses by ½gh² = 0.5 mm: one update per step.
+    g, v0, h = 9.81, np.array([1.0, 0.0, 4.0]), 0.01
+    m = fd.Model("throw", gravity=[0, 0, -g])
+    m.node("ball", [0, 0, 0], velocity=v0.tolist())
+    m.body("mass", "ball", mass=2.0, inertia=[0.1, 0.1, 0.1])
+    m.sensor("node_position", "p", node="ball")
+    res = fd.simulate(m, scheme=scheme, step_control="fixed", dt=h, t_end=1.0)
+    stats = res.flexdyn.stats
+    assert stats["newton_iterations"] <= 3, stats  # the first step's (measured: 1)
+    t = res.time.values
+    z = v0[2] * t - 0.5 * g * t**2
+    # Round-off of 100 steps on a 4 m arc.
+    assert np.max(np.abs(res["p.z"].values - z)) < 1e-12
+
+
 def test_modified_newton_refactors_before_halving_a_rotors_step():
     # A rotor turns its Newton matrix by Ωh every step, so factors kept from an earlier step
     # can throw the first iterates off (a blade turned by > 150°). Such a failure retries the

@@ -184,6 +184,8 @@ pub struct Integrator {
     values_exact: bool,
     /// Kept factors followed through the nodes' rotations since they were computed.
     corotation: CoRotation,
+    /// The last converged steps' accelerations, for the predictor's second-order terms.
+    trend: predictor::Trend,
     /// ED: the contraction per iteration that the last fresh decoupled factors achieved over
     /// the solve they were computed in, and where they started (distance, iteration).
     decoupled_rate: Option<f64>,
@@ -282,6 +284,7 @@ impl Integrator {
             decoupled_misses: 0,
             values_exact: false,
             corotation: CoRotation::new(sys),
+            trend: predictor::Trend::default(),
             decoupled_rate: None,
             decoupled_from: None,
             served: 0,
@@ -360,15 +363,29 @@ impl Integrator {
     }
 
     /// Predictor: each node's velocity turning with its angular velocity (see [`predictor`]),
-    /// joint coordinates at constant rate; multipliers from the last step.
+    /// joint coordinates at constant rate, multipliers from the last step — plus, where the
+    /// step that ended in `state` left its trend ([`predictor::Trend`]), the second-order
+    /// terms of its accelerations and multiplier rates. The first residual of a swinging beam
+    /// pendulum falls from its tip's weight (4e2 N) to a few N, a Newton iteration or more
+    /// per step at small h.
     pub fn predict(&mut self, sys: &System, state: &State, h: f64) {
+        self.predict_with(sys, state, h, true);
+    }
+
+    fn predict_with(&mut self, sys: &System, state: &State, h: f64, second_order: bool) {
         let layout = sys.layout;
         let ed = layout.ed();
         let s = Self::scaling(sys, h);
         self.y.iter_mut().for_each(|v| *v = 0.0);
+        let trend = self.trend.at(state).filter(|_| second_order);
+        let half_h2 = 0.5 * h * h;
         for (a, n) in state.nodes.iter().enumerate() {
             let d = layout.node_delta(a);
-            let (dx, r) = predictor::turning_increment(&n.r, n.v, n.w, h);
+            let (mut dx, mut r) = predictor::turning_increment(&n.r, n.v, n.w, h);
+            if let Some(c) = &trend {
+                dx += c.accel[a][0].scale_f(half_h2);
+                r += c.accel[a][1].scale_f(half_h2);
+            }
             dx.write_to(&mut self.y[d..]);
             r.write_to(&mut self.y[d + 3..]);
             if ed {
@@ -378,13 +395,15 @@ impl Integrator {
             }
         }
         for c in 0..layout.n_coords {
-            self.y[layout.coord_delta(c)] = h * state.coord_rates[c];
+            let curve = trend.as_ref().map_or(0.0, |t| half_h2 * t.coord_accel[c]);
+            self.y[layout.coord_delta(c)] = h * state.coord_rates[c] + curve;
             if ed {
                 self.y[layout.coord_jump(c)] = h * state.coord_rates[c];
             }
         }
         for r in 0..layout.n_rows {
-            self.y[layout.mult(r)] = state.lambda[r] / s;
+            let rate = trend.as_ref().map_or(0.0, |t| h * t.lambda_rate[r]);
+            self.y[layout.mult(r)] = (state.lambda[r] + rate) / s;
         }
     }
 
@@ -610,16 +629,18 @@ impl Integrator {
         // decoupled system's failed fresh.
         if matches!(&result, Err(e) if e.retry && self.started_stale) {
             self.factored_for = None;
-            self.predict(sys, state, h);
+            self.predict_with(sys, state, h, false);
             result = self.newton(sys, &ctx);
         }
         if matches!(&result, Err(e) if e.retry && self.factors == Factors::Decoupled) {
             self.decoupled_missed();
             self.factored_for = None;
-            self.predict(sys, state, h);
+            self.predict_with(sys, state, h, false);
             result = self.newton(sys, &ctx);
         }
-        Ok(self.commit(sys, &ctx, result?))
+        let (end, report) = self.commit(sys, &ctx, result?);
+        self.trend.record(state, &end, h);
+        Ok((end, report))
     }
 
     /// Multiplier scaling of a static solve: the stiffness scale `EA/L` of the stiffest
