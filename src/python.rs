@@ -458,6 +458,7 @@ impl PySimulation {
         d.set_item("steps_set_by_spin", spin)?;
         d.set_item("steps_set_by_jumps", jumps)?;
         d.set_item("linear_solves", s.linear_solves)?;
+        d.set_item("residual_evaluations", s.residual_evaluations)?;
         d.set_item("dt_smallest", s.dt_smallest)?;
         d.set_item("dt_largest", s.dt_largest)?;
         d.set_item("newton_iterations", s.newton_iterations)?;

@@ -108,10 +108,13 @@ pub fn check(model: &Model, c: &mut Checker) {
     if !(s.newton_tol.is_finite() && s.newton_tol > 0.0 && s.newton_tol < 1.0) {
         c.err("simulation.newton_tol", "must be between 0 and 1");
     }
-    if !(s.newton_increment_tol.is_finite() && s.newton_increment_tol > 0.0) {
+    if !(s.newton_increment_tol.is_finite() && s.newton_increment_tol >= 0.0) {
         c.err(
             "simulation.newton_increment_tol",
-            format!("must be positive (got {})", s.newton_increment_tol),
+            format!(
+                "must be positive, or 0 to turn the increment test off (got {})",
+                s.newton_increment_tol
+            ),
         );
     }
     if s.load_steps == 0 {

@@ -56,6 +56,8 @@ pub struct RunStats {
     pub steps_set_by: [usize; 3],
     /// Linear solves (Newton updates); with modified Newton more than factorizations.
     pub linear_solves: usize,
+    /// Assemblies of the Newton equations (residuals, some with a tangent).
+    pub residual_evaluations: usize,
     /// Smallest and largest step taken, s.
     pub dt_smallest: f64,
     pub dt_largest: f64,
@@ -81,6 +83,7 @@ impl Default for RunStats {
             over_tolerance: 0,
             steps_set_by: [0; 3],
             linear_solves: 0,
+            residual_evaluations: 0,
             dt_smallest: f64::INFINITY,
             dt_largest: 0.0,
             last_dt: 0.0,
@@ -585,6 +588,7 @@ impl Simulation {
         self.stats.factorizations = self.integrator.factorizations();
         self.stats.exact_factorizations = self.integrator.matrix.numeric_factorizations;
         self.stats.linear_solves = self.integrator.solves;
+        self.stats.residual_evaluations = self.integrator.residual_evaluations;
         self.stats.orderings = self.integrator.matrix.orderings;
         self.stats.pattern_misses = self.integrator.pattern_misses;
         self.stats.pattern_rebuilds = self.integrator.pattern_rebuilds;
