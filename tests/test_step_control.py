@@ -324,6 +324,13 @@ def test_a_step_ends_at_the_round_off_floor_earlier_steps_stalled_at():
     assert np.abs(res["energy.balance"].values).max() < 1e-9 * work
 
 
+def test_an_increment_tolerance_of_zero_turns_the_increment_test_off():
+    # Documented as "0 disables"; it used to be rejected as not positive.
+    m = fd.load(ROOT / "examples" / "pendulum.yaml")
+    m.simulation(step_control="fixed", dt=0.01, t_end=0.5, newton_increment_tol=0)
+    assert fd.simulate(m).flexdyn.stats["steps"] == 50
+
+
 @pytest.mark.parametrize("scheme", ["ep", "ed"])
 def test_the_predictor_follows_the_last_steps_accelerations(scheme):
     # A body thrown in free fall: both schemes are exact for a constant force, and from the
