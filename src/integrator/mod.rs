@@ -825,8 +825,10 @@ impl Integrator {
     /// tightly as when every step stalled (12-element beam pendulum at 1 ms: residuals of
     /// 1e0, 1e-3, 6e-8, then 9e-9, 7e-9, 9e-9 seen stalling).
     fn at_seen_floor(&self, sys: &System, ctx: &StepCtx, m: &Measure) -> bool {
+        // The same size up to round-off (a fixed step recomputed as t_f − t_i varies in its
+        // last bits), as for kept factors.
         self.seen_floor
-            .is_some_and(|(h, force)| h == ctx.h && m.force <= 2.0 * force)
+            .is_some_and(|(h, force)| (h - ctx.h).abs() <= 1e-9 * h && m.force <= 2.0 * force)
             && m.force <= m.force_floor
             && m.constraints_hold(sys, self.tol, None)
     }
