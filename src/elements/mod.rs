@@ -58,6 +58,27 @@ pub trait Kernel {
     fn unknowns(&self) -> &[usize];
     /// Residual contributions over the local unknowns `y` (rows scaled by 1/h: forces).
     fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], r: &mut [T]);
+    /// Adds the residual to `res` and each row's contribution magnitude to `activity` (the
+    /// convergence test's force scale): what a residual-only assembly calls. Must add what
+    /// [`Kernel::evaluate`] adds without a tangent.
+    fn residual_with_activity(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        res: &mut [f64],
+        activity: &mut [f64],
+    ) where
+        Self: Sized,
+    {
+        let n = self.unknowns().len();
+        match n {
+            0..=12 => residual_pass::<Self, 12>(self, ctx, y, res, Some(activity)),
+            13..=24 => residual_pass::<Self, 24>(self, ctx, y, res, Some(activity)),
+            25..=48 => residual_pass::<Self, 48>(self, ctx, y, res, Some(activity)),
+            49..=96 => residual_pass::<Self, 96>(self, ctx, y, res, Some(activity)),
+            _ => residual_pass::<Self, MAX_LOCAL>(self, ctx, y, res, Some(activity)),
+        }
+    }
     /// Adds the residual and, if asked, the exact tangent block (see [`eval_kernel`]). A
     /// kernel whose residual is a sum of small parts over subsets of its unknowns (a sliding
     /// joint's window) differentiates them part by part.
@@ -125,11 +146,11 @@ pub fn eval_kernel<K: Kernel>(
         // Buffers sized to the block: zeroing MAX_LOCAL entries for every kernel was 7–10 %
         // of a beam model's residual.
         None => match n {
-            0..=12 => residual_pass::<K, 12>(k, ctx, y, res),
-            13..=24 => residual_pass::<K, 24>(k, ctx, y, res),
-            25..=48 => residual_pass::<K, 48>(k, ctx, y, res),
-            49..=96 => residual_pass::<K, 96>(k, ctx, y, res),
-            _ => residual_pass::<K, MAX_LOCAL>(k, ctx, y, res),
+            0..=12 => residual_pass::<K, 12>(k, ctx, y, res, None),
+            13..=24 => residual_pass::<K, 24>(k, ctx, y, res, None),
+            25..=48 => residual_pass::<K, 48>(k, ctx, y, res, None),
+            49..=96 => residual_pass::<K, 96>(k, ctx, y, res, None),
+            _ => residual_pass::<K, MAX_LOCAL>(k, ctx, y, res, None),
         },
         Some((vals, pos)) => {
             assert!(
@@ -149,8 +170,15 @@ pub fn eval_kernel<K: Kernel>(
     }
 }
 
-/// The residual alone, with local buffers of `M ≥ n` entries.
-fn residual_pass<K: Kernel, const M: usize>(k: &K, ctx: &StepCtx, y: &[f64], res: &mut [f64]) {
+/// The residual alone, with local buffers of `M ≥ n` entries (and, if given, each row's
+/// contribution magnitude added to `activity`).
+fn residual_pass<K: Kernel, const M: usize>(
+    k: &K,
+    ctx: &StepCtx,
+    y: &[f64],
+    res: &mut [f64],
+    activity: Option<&mut [f64]>,
+) {
     let idx = k.unknowns();
     let n = idx.len();
     let mut yl = [0.0f64; M];
@@ -161,6 +189,11 @@ fn residual_pass<K: Kernel, const M: usize>(k: &K, ctx: &StepCtx, y: &[f64], res
     k.residual(ctx, &yl[..n], &mut rl[..n]);
     for (l, &g) in idx.iter().enumerate() {
         res[g] += rl[l];
+    }
+    if let Some(activity) = activity {
+        for (l, &g) in idx.iter().enumerate() {
+            activity[g] += rl[l].abs();
+        }
     }
 }
 

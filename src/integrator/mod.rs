@@ -579,16 +579,24 @@ impl Integrator {
                 )
             };
             ($list:expr, $pos:expr, $eval:expr) => {
-                for (k, p) in $list.iter().zip($pos.iter()) {
-                    let idx = k.unknowns();
-                    for (b, &g) in before.iter_mut().zip(idx) {
-                        *b = res[g];
+                if with_jacobian {
+                    for (k, p) in $list.iter().zip($pos.iter()) {
+                        let idx = k.unknowns();
+                        for (b, &g) in before.iter_mut().zip(idx) {
+                            *b = res[g];
+                        }
+                        let jac = Some((&mut vals[..], &p[..]));
+                        #[allow(clippy::redundant_closure_call)]
+                        ($eval)(k, jac);
+                        for (b, &g) in before.iter().zip(idx) {
+                            activity[g] += (res[g] - b).abs();
+                        }
                     }
-                    let jac = with_jacobian.then(|| (&mut vals[..], &p[..]));
-                    #[allow(clippy::redundant_closure_call)]
-                    ($eval)(k, jac);
-                    for (b, &g) in before.iter().zip(idx) {
-                        activity[g] += (res[g] - b).abs();
+                } else {
+                    // Residual only: each kernel adds its rows' magnitudes from its local
+                    // block (no gather of the rows before and after it).
+                    for k in $list.iter() {
+                        Kernel::residual_with_activity(k, ctx, y, res, activity);
                     }
                 }
             };
@@ -1361,5 +1369,69 @@ impl Integrator {
         report.constraint_work = sys.joints.iter().map(|j| j.step_work(ctx, y)).sum();
         report.frictions = sys.frictions.iter().map(|f| f.step(ctx, y)).collect();
         report.friction_work = report.frictions.iter().map(|f| f.work).sum();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::layout::Scheme;
+
+    /// A residual-only assembly (modified Newton's iterations: each kernel's residual and its
+    /// rows' activity from its local block, `Kernel::residual_with_activity`) adds what the
+    /// tangent assembly adds through `Kernel::evaluate`: the same residual and the same force
+    /// scale, over the examples' kernels (beams, bodies, classic, sliding and sliding-screw
+    /// joints, drives, springs), EP and ED. A kernel whose residual-only path drifted from its
+    /// `evaluate` would break the equality.
+    #[test]
+    fn residual_only_assembly_adds_what_the_tangent_assembly_adds() {
+        for name in [
+            "beam_pendulum",
+            "free_collar",
+            "four_bar",
+            "slider_crank",
+            "heavy_top",
+            "beam_slider/case1",
+            "beam_slider/twisted_case1",
+        ] {
+            let path = format!("{}/examples/{name}.yaml", env!("CARGO_MANIFEST_DIR"));
+            let Ok(text) = std::fs::read_to_string(&path) else {
+                panic!("example {path} is missing");
+            };
+            let model = crate::compile::from_yaml_str(&text).unwrap();
+            for scheme in [Scheme::Ep, Scheme::Ed] {
+                let sys = crate::compile::compile(&model, scheme).unwrap();
+                let mut integ = Integrator::new(&sys, &model.simulation);
+                let h = 1e-3;
+                let state = sys.initial.clone();
+                let ctx = StepCtx {
+                    layout: sys.layout,
+                    h,
+                    t_i: 0.0,
+                    t_f: h,
+                    s: Integrator::scaling(&sys, h),
+                    state: &state,
+                    gravity: sys.gravity,
+                    statics: None,
+                };
+                integ.predict(&sys, &state, h);
+                integ.assemble(&sys, &ctx, true);
+                let (res, activity) = (integ.res.clone(), integ.activity.clone());
+                integ.assemble(&sys, &ctx, false);
+                let scale = activity.iter().fold(1e-300f64, |m, a| m.max(*a));
+                for i in 0..res.len() {
+                    // Round-off of a sum taken in another order.
+                    let what = sys.describe_row(i);
+                    assert!(
+                        (res[i] - integ.res[i]).abs() <= 1e-12 * scale,
+                        "{name} {scheme:?}: residual at {what}"
+                    );
+                    assert!(
+                        (activity[i] - integ.activity[i]).abs() <= 1e-12 * scale,
+                        "{name} {scheme:?}: activity at {what}"
+                    );
+                }
+            }
+        }
     }
 }
