@@ -268,23 +268,13 @@ joints:
     }
 
     fn decoupled_update_is_exact_at_rest(text: &str) {
-        use crate::elements::StepCtx;
         use crate::integrator::Integrator;
         let model = crate::compile::from_yaml_str(&text).unwrap();
         let sys = crate::compile::compile(&model, Scheme::Ed).unwrap();
         let mut integ = Integrator::new(&sys, &model.simulation);
         let h = 1e-3;
         let state = sys.initial.clone();
-        let ctx = StepCtx {
-            layout: sys.layout,
-            h,
-            t_i: 0.0,
-            t_f: h,
-            s: Integrator::scaling(&sys, h),
-            state: &state,
-            gravity: sys.gravity,
-            statics: None,
-        };
+        let ctx = Integrator::step_ctx(&sys, &state, h);
         integ.predict(&sys, &state, h);
         // The rows the decoupled system reads, as modified Newton assembles them (the beams'
         // from their EP stiffness), then the exact tangent.

@@ -622,14 +622,9 @@ impl Integrator {
         sys.mass_ref / (h * h)
     }
 
-    /// Advances `state` by `h`. On failure nothing is changed.
-    pub fn step(
-        &mut self,
-        sys: &System,
-        state: &State,
-        h: f64,
-    ) -> Result<(State, StepReport), StepFailure> {
-        let ctx = StepCtx {
+    /// The context of a dynamic step of `h` from `state`.
+    pub fn step_ctx<'a>(sys: &System, state: &'a State, h: f64) -> StepCtx<'a> {
+        StepCtx {
             layout: sys.layout,
             h,
             t_i: state.t,
@@ -638,7 +633,17 @@ impl Integrator {
             state,
             gravity: sys.gravity,
             statics: None,
-        };
+        }
+    }
+
+    /// Advances `state` by `h`. On failure nothing is changed.
+    pub fn step(
+        &mut self,
+        sys: &System,
+        state: &State,
+        h: f64,
+    ) -> Result<(State, StepReport), StepFailure> {
+        let ctx = Self::step_ctx(sys, state, h);
         self.exact_for_step = false;
         self.predict(sys, state, h);
         let mut result = self.newton(sys, &ctx);
@@ -1404,16 +1409,7 @@ mod tests {
                 let mut integ = Integrator::new(&sys, &model.simulation);
                 let h = 1e-3;
                 let state = sys.initial.clone();
-                let ctx = StepCtx {
-                    layout: sys.layout,
-                    h,
-                    t_i: 0.0,
-                    t_f: h,
-                    s: Integrator::scaling(&sys, h),
-                    state: &state,
-                    gravity: sys.gravity,
-                    statics: None,
-                };
+                let ctx = Integrator::step_ctx(&sys, &state, h);
                 integ.predict(&sys, &state, h);
                 integ.assemble(&sys, &ctx, true);
                 let (res, activity) = (integ.res.clone(), integ.activity.clone());

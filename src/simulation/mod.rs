@@ -603,16 +603,7 @@ impl Simulation {
 
     /// Used by tests: the step context of the current state.
     pub fn ctx(&self, h: f64) -> StepCtx<'_> {
-        StepCtx {
-            layout: self.system.layout,
-            h,
-            t_i: self.state.t,
-            t_f: self.state.t + h,
-            s: Integrator::scaling(&self.system, h),
-            state: &self.state,
-            gravity: self.system.gravity,
-            statics: None,
-        }
+        Integrator::step_ctx(&self.system, &self.state, h)
     }
 }
 
