@@ -70,14 +70,7 @@ pub trait Kernel {
     ) where
         Self: Sized,
     {
-        let n = self.unknowns().len();
-        match n {
-            0..=12 => residual_pass::<Self, 12>(self, ctx, y, res, Some(activity)),
-            13..=24 => residual_pass::<Self, 24>(self, ctx, y, res, Some(activity)),
-            25..=48 => residual_pass::<Self, 48>(self, ctx, y, res, Some(activity)),
-            49..=96 => residual_pass::<Self, 96>(self, ctx, y, res, Some(activity)),
-            _ => residual_pass::<Self, MAX_LOCAL>(self, ctx, y, res, Some(activity)),
-        }
+        residual_sized(self, ctx, y, res, Some(activity))
     }
     /// Adds the residual and, if asked, the exact tangent block (see [`eval_kernel`]). A
     /// kernel whose residual is a sum of small parts over subsets of its unknowns (a sliding
@@ -143,15 +136,7 @@ pub fn eval_kernel<K: Kernel>(
         "kernel block of {n} unknowns exceeds MAX_LOCAL"
     );
     match jac {
-        // Buffers sized to the block: zeroing MAX_LOCAL entries for every kernel was 7–10 %
-        // of a beam model's residual.
-        None => match n {
-            0..=12 => residual_pass::<K, 12>(k, ctx, y, res, None),
-            13..=24 => residual_pass::<K, 24>(k, ctx, y, res, None),
-            25..=48 => residual_pass::<K, 48>(k, ctx, y, res, None),
-            49..=96 => residual_pass::<K, 96>(k, ctx, y, res, None),
-            _ => residual_pass::<K, MAX_LOCAL>(k, ctx, y, res, None),
-        },
+        None => residual_sized(k, ctx, y, res, None),
         Some((vals, pos)) => {
             assert!(
                 n <= MAX_DUAL_LOCAL,
@@ -167,6 +152,24 @@ pub fn eval_kernel<K: Kernel>(
                 _ => dual_passes::<K, MAX_DUAL_LOCAL, DUAL_WIDTH>(k, ctx, y, res, vals, pos),
             }
         }
+    }
+}
+
+/// [`residual_pass`] with buffers sized to the block: zeroing MAX_LOCAL entries for every
+/// kernel was 7–10 % of a beam model's residual.
+fn residual_sized<K: Kernel>(
+    k: &K,
+    ctx: &StepCtx,
+    y: &[f64],
+    res: &mut [f64],
+    activity: Option<&mut [f64]>,
+) {
+    match k.unknowns().len() {
+        0..=12 => residual_pass::<K, 12>(k, ctx, y, res, activity),
+        13..=24 => residual_pass::<K, 24>(k, ctx, y, res, activity),
+        25..=48 => residual_pass::<K, 48>(k, ctx, y, res, activity),
+        49..=96 => residual_pass::<K, 96>(k, ctx, y, res, activity),
+        _ => residual_pass::<K, MAX_LOCAL>(k, ctx, y, res, activity),
     }
 }
 
