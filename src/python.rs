@@ -464,6 +464,7 @@ impl PySimulation {
         d.set_item("newton_iterations", s.newton_iterations)?;
         d.set_item("factorizations", s.factorizations)?;
         d.set_item("exact_factorizations", s.exact_factorizations)?;
+        d.set_item("pivoting_factorizations", s.pivoting_factorizations)?;
         d.set_item("orderings", s.orderings)?;
         d.set_item("max_constraint_violation", s.max_constraint_violation)?;
         d.set_item("max_constraint_work", s.max_constraint_work)?;

@@ -117,6 +117,11 @@ impl DecoupledMatrix {
     }
 
     /// Forms the complex matrix from the assembled real ED tangent `values` and factors it.
+    /// Factorizations that chose their pivots (the others reused an earlier one's).
+    pub fn pivoting_factorizations(&self) -> usize {
+        self.matrix.numeric_factorizations - self.matrix.refactorizations
+    }
+
     pub fn factor(&mut self, values: &[f64]) -> Result<(), String> {
         self.matrix.clear();
         let m = &mut self.matrix.values;

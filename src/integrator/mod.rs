@@ -448,6 +448,15 @@ impl Integrator {
         self.matrix.numeric_factorizations + self.decoupled_factorizations
     }
 
+    /// Of those, the factorizations that chose their pivots (partial pivoting; the others
+    /// refactored with an earlier one's pivots and patterns).
+    pub fn pivoting_factorizations(&self) -> usize {
+        let m = &self.matrix;
+        let decoupled = self.decoupled.as_ref();
+        m.numeric_factorizations - m.refactorizations
+            + decoupled.map_or(0, |d| d.pivoting_factorizations())
+    }
+
     /// The factors a fresh tangent gets: under ED with modified Newton, those of the
     /// decoupled complex system (half the unknowns, ~⅓ of the LU's cost; see
     /// [`ed_decoupled`]) unless they did not serve this step; the exact matrix's otherwise
@@ -504,6 +513,13 @@ impl Integrator {
         }
         self.factors = factors;
         Ok(())
+    }
+
+    /// The residual the last assembly left, which [`Self::solve_residual`] turns into the
+    /// update in place (benchmarks set it before each solve: repeated in-place solves drift
+    /// into subnormal or overflowing numbers, whose arithmetic is not a solve's cost).
+    pub fn residual_mut(&mut self) -> &mut [f64] {
+        &mut self.res
     }
 
     /// The update for the residual in `res` with the factors in hand, left in `res`

@@ -36,6 +36,9 @@ pub struct RunStats {
     pub factorizations: usize,
     /// Of them, those of the exact Newton matrix (the rest: ED's decoupled complex system).
     pub exact_factorizations: usize,
+    /// Of all factorizations, those that chose their pivots; the rest reused the pivots and
+    /// factor patterns of an earlier one (numeric refactorizations).
+    pub pivoting_factorizations: usize,
     /// Fill-reducing orderings computed (once per sparsity pattern).
     pub orderings: usize,
     pub max_constraint_violation: f64,
@@ -73,6 +76,7 @@ impl Default for RunStats {
             newton_iterations: 0,
             factorizations: 0,
             exact_factorizations: 0,
+            pivoting_factorizations: 0,
             orderings: 0,
             max_constraint_violation: 0.0,
             max_constraint_work: 0.0,
@@ -587,6 +591,7 @@ impl Simulation {
         self.stats.newton_iterations = self.integrator.total_iterations;
         self.stats.factorizations = self.integrator.factorizations();
         self.stats.exact_factorizations = self.integrator.matrix.numeric_factorizations;
+        self.stats.pivoting_factorizations = self.integrator.pivoting_factorizations();
         self.stats.linear_solves = self.integrator.solves;
         self.stats.residual_evaluations = self.integrator.residual_evaluations;
         self.stats.orderings = self.integrator.matrix.orderings;

@@ -1,0 +1,246 @@
+//! Numeric refactorization of a sparse LU with the pivot order and factor patterns of an
+//! earlier partial-pivoting factorization: the left-looking LU of Gilbert & Peierls without
+//! its depth-first searches (as KLU's refactor). A Newton matrix changes its values, never its
+//! pattern, and rarely enough to want other pivots; when it does — a pivot below
+//! [`PIVOT_THRESHOLD`] of its column's largest candidate — [`StaticPivotLu::refactor`] says so
+//! and the caller factors with pivoting again.
+//!
+//! Factor space: factor column `k` is column `col_perm[k]` of A, factor row `k` is row
+//! `row_perm[k]` of A; `P A Q = L U` with L unit lower and U upper triangular.
+
+use faer::c64;
+use faer::sparse::linalg::lu::simplicial::SimplicialLu;
+use std::ops::{Div, Mul, SubAssign};
+
+/// A pivot is kept while its magnitude is at least this fraction of the largest candidate in
+/// its column (threshold partial pivoting; 0.1 is UMFPACK's and MA48's default: element
+/// growth at most 10× per elimination step instead of 1×).
+pub const PIVOT_THRESHOLD: f64 = 0.1;
+
+/// The scalar arithmetic a refactorization needs (`f64` and `c64`).
+pub trait Scalar: Copy + Default + Mul<Output = Self> + Div<Output = Self> + SubAssign {
+    /// A magnitude for pivot comparisons (the 1-norm for complex numbers: within √2 of the
+    /// modulus, and without a square root).
+    fn magnitude(self) -> f64;
+}
+
+impl Scalar for f64 {
+    fn magnitude(self) -> f64 {
+        self.abs()
+    }
+}
+
+impl Scalar for c64 {
+    fn magnitude(self) -> f64 {
+        self.re.abs() + self.im.abs()
+    }
+}
+
+/// L and U with fixed patterns and pivots; every buffer is reused across refactorizations
+/// and rebuilt (capacity kept) only after a pivoting factorization.
+#[derive(Default)]
+pub struct StaticPivotLu<T> {
+    n: usize,
+    /// Per factor column: the factor rows of A's column `col_perm[k]` and where its values
+    /// are in A's value array.
+    a_ptr: Vec<usize>,
+    a_row: Vec<usize>,
+    a_pos: Vec<usize>,
+    /// Strictly lower part of L (unit diagonal implied), by columns.
+    l_ptr: Vec<usize>,
+    l_row: Vec<usize>,
+    l_val: Vec<T>,
+    /// Strictly upper part of U by columns, rows ascending (a topological order for the
+    /// left-looking updates), and U's diagonal.
+    u_ptr: Vec<usize>,
+    u_row: Vec<usize>,
+    u_val: Vec<T>,
+    u_diag: Vec<T>,
+    row_perm: Vec<usize>,
+    col_perm: Vec<usize>,
+    /// Dense column / right-hand side in factor space; all zero between refactorizations.
+    work: Vec<T>,
+    /// One column of U being sorted (`rebuild`).
+    sort_scratch: Vec<(usize, T)>,
+}
+
+impl<T: Scalar> StaticPivotLu<T> {
+    /// Takes patterns, pivots and values from faer's simplicial LU of the matrix with pattern
+    /// `(a_col_ptr, a_row_idx)`, factored in column order `col_perm` with row order
+    /// `row_perm` (`row_perm_inv` its inverse).
+    pub fn rebuild(
+        &mut self,
+        (a_col_ptr, a_row_idx): (&[usize], &[usize]),
+        (row_perm, row_perm_inv): (&[usize], &[usize]),
+        col_perm: &[usize],
+        lu: &SimplicialLu<usize, T>,
+    ) {
+        let n = col_perm.len();
+        self.n = n;
+        self.row_perm.clear();
+        self.row_perm.extend_from_slice(row_perm);
+        self.col_perm.clear();
+        self.col_perm.extend_from_slice(col_perm);
+        self.work.clear();
+        self.work.resize(n, T::default());
+        self.a_ptr.clear();
+        self.a_row.clear();
+        self.a_pos.clear();
+        self.a_ptr.push(0);
+        for &c in col_perm {
+            for p in a_col_ptr[c]..a_col_ptr[c + 1] {
+                self.a_row.push(row_perm_inv[a_row_idx[p]]);
+                self.a_pos.push(p);
+            }
+            self.a_ptr.push(self.a_row.len());
+        }
+        self.take_l(lu);
+        self.take_u(lu);
+
+        // The refactorization and the solves index the work vector by these unchecked.
+        let rows = self.a_row.iter().chain(&self.l_row).chain(&self.u_row);
+        assert!(
+            rows.into_iter().all(|&r| r < n),
+            "LU factor rows within 0..n"
+        );
+    }
+
+    /// L's strictly lower entries (faer stores the unit diagonal explicitly).
+    fn take_l(&mut self, lu: &SimplicialLu<usize, T>) {
+        let l = lu.l_factor_unsorted();
+        let (ptr, rows, vals) = (l.col_ptr(), l.row_idx(), l.val());
+        self.l_ptr.clear();
+        self.l_row.clear();
+        self.l_val.clear();
+        self.l_ptr.push(0);
+        for k in 0..self.n {
+            for p in ptr[k]..ptr[k + 1] {
+                if rows[p] != k {
+                    self.l_row.push(rows[p]);
+                    self.l_val.push(vals[p]);
+                }
+            }
+            self.l_ptr.push(self.l_row.len());
+        }
+    }
+
+    /// U's strictly upper entries, sorted by row in each column, and its diagonal.
+    fn take_u(&mut self, lu: &SimplicialLu<usize, T>) {
+        let u = lu.u_factor_unsorted();
+        let (ptr, rows, vals) = (u.col_ptr(), u.row_idx(), u.val());
+        self.u_ptr.clear();
+        self.u_row.clear();
+        self.u_val.clear();
+        self.u_diag.clear();
+        self.u_diag.resize(self.n, T::default());
+        self.u_ptr.push(0);
+        for k in 0..self.n {
+            let start = self.u_row.len();
+            for p in ptr[k]..ptr[k + 1] {
+                if rows[p] == k {
+                    self.u_diag[k] = vals[p];
+                } else {
+                    self.u_row.push(rows[p]);
+                    self.u_val.push(vals[p]);
+                }
+            }
+            let entries = &mut self.sort_scratch;
+            entries.clear();
+            entries.extend(
+                self.u_row[start..]
+                    .iter()
+                    .copied()
+                    .zip(self.u_val[start..].iter().copied()),
+            );
+            entries.sort_unstable_by_key(|e| e.0);
+            for (q, &(r, v)) in entries.iter().enumerate() {
+                self.u_row[start + q] = r;
+                self.u_val[start + q] = v;
+            }
+            self.u_ptr.push(self.u_row.len());
+        }
+    }
+
+    /// Entries of L and U, diagonals included.
+    pub fn nnz(&self) -> usize {
+        self.l_row.len() + self.u_row.len() + 2 * self.n
+    }
+
+    /// Refactors A (`values` on the pattern given to [`Self::rebuild`]) with the kept pivots;
+    /// false, with the factors unusable, when a pivot falls below [`PIVOT_THRESHOLD`] of its
+    /// column's largest candidate (or is zero or not finite).
+    pub fn refactor(&mut self, values: &[T]) -> bool {
+        for k in 0..self.n {
+            if !self.refactor_column(k, values) {
+                self.work.iter_mut().for_each(|w| *w = T::default());
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Column `k` of L and U: scatter A's column, apply the earlier columns of L that U's
+    /// pattern names (in ascending order), gather and scale (left-looking).
+    fn refactor_column(&mut self, k: usize, values: &[T]) -> bool {
+        let x = &mut self.work;
+        for p in self.a_ptr[k]..self.a_ptr[k + 1] {
+            x[self.a_row[p]] = values[self.a_pos[p]];
+        }
+        let upper = self.u_ptr[k]..self.u_ptr[k + 1];
+        for (&j, u) in self.u_row[upper.clone()].iter().zip(&mut self.u_val[upper]) {
+            let ujk = x[j];
+            x[j] = T::default();
+            *u = ujk;
+            let col = self.l_ptr[j]..self.l_ptr[j + 1];
+            for (&i, &l) in self.l_row[col.clone()].iter().zip(&self.l_val[col]) {
+                // SAFETY: factor rows are below n = x.len() (checked in `rebuild`).
+                unsafe { *x.get_unchecked_mut(i) -= l * ujk };
+            }
+        }
+        let pivot = x[k];
+        x[k] = T::default();
+        let lower = self.l_ptr[k]..self.l_ptr[k + 1];
+        let largest = self.l_row[lower.clone()]
+            .iter()
+            .fold(0.0f64, |m, &i| m.max(x[i].magnitude()));
+        let size = pivot.magnitude();
+        if !(size.is_finite() && size > 0.0 && size >= PIVOT_THRESHOLD * largest) {
+            return false;
+        }
+        self.u_diag[k] = pivot;
+        for (&i, l) in self.l_row[lower.clone()].iter().zip(&mut self.l_val[lower]) {
+            *l = x[i] / pivot;
+            x[i] = T::default();
+        }
+        true
+    }
+
+    /// Solves `A x = rhs` in place.
+    pub fn solve(&mut self, rhs: &mut [T]) {
+        let y = &mut self.work;
+        for (yk, &r) in y.iter_mut().zip(&self.row_perm) {
+            *yk = rhs[r];
+        }
+        for k in 0..self.n {
+            let yk = y[k];
+            let col = self.l_ptr[k]..self.l_ptr[k + 1];
+            for (&i, &l) in self.l_row[col.clone()].iter().zip(&self.l_val[col]) {
+                // SAFETY: factor rows are below n = y.len() (checked in `rebuild`).
+                unsafe { *y.get_unchecked_mut(i) -= l * yk };
+            }
+        }
+        for k in (0..self.n).rev() {
+            let yk = y[k] / self.u_diag[k];
+            y[k] = yk;
+            let col = self.u_ptr[k]..self.u_ptr[k + 1];
+            for (&j, &u) in self.u_row[col.clone()].iter().zip(&self.u_val[col]) {
+                // SAFETY: as above.
+                unsafe { *y.get_unchecked_mut(j) -= u * yk };
+            }
+        }
+        for (yk, &c) in y.iter_mut().zip(&self.col_perm) {
+            rhs[c] = *yk;
+            *yk = T::default();
+        }
+    }
+}
