@@ -10,6 +10,7 @@
 
 use faer::c64;
 use faer::sparse::linalg::lu::simplicial::SimplicialLu;
+use faer::sparse::SparseColMatRef;
 use std::ops::{Div, Mul, SubAssign};
 
 /// A pivot is kept while its magnitude is at least this fraction of the largest candidate in
@@ -46,15 +47,11 @@ pub struct StaticPivotLu<T> {
     a_ptr: Vec<usize>,
     a_row: Vec<usize>,
     a_pos: Vec<usize>,
-    /// Strictly lower part of L (unit diagonal implied), by columns.
-    l_ptr: Vec<usize>,
-    l_row: Vec<usize>,
-    l_val: Vec<T>,
-    /// Strictly upper part of U by columns, rows ascending (a topological order for the
+    /// Strictly lower part of L (unit diagonal implied).
+    l: Triangle<T>,
+    /// Strictly upper part of U, rows ascending in each column (a topological order for the
     /// left-looking updates), and U's diagonal.
-    u_ptr: Vec<usize>,
-    u_row: Vec<usize>,
-    u_val: Vec<T>,
+    u: Triangle<T>,
     u_diag: Vec<T>,
     row_perm: Vec<usize>,
     col_perm: Vec<usize>,
@@ -94,76 +91,26 @@ impl<T: Scalar> StaticPivotLu<T> {
             }
             self.a_ptr.push(self.a_row.len());
         }
-        self.take_l(lu);
-        self.take_u(lu);
+        // faer stores L's unit diagonal explicitly; U's diagonal is the pivots.
+        self.l.take_strict(lu.l_factor_unsorted(), |_, _| {});
+        self.u_diag.clear();
+        self.u_diag.resize(n, T::default());
+        let diag = &mut self.u_diag;
+        self.u
+            .take_strict(lu.u_factor_unsorted(), |k, v| diag[k] = v);
+        self.u.sort_columns(&mut self.sort_scratch);
 
         // The refactorization and the solves index the work vector by these unchecked.
-        let rows = self.a_row.iter().chain(&self.l_row).chain(&self.u_row);
+        let rows = self.a_row.iter().chain(&self.l.row).chain(&self.u.row);
         assert!(
             rows.into_iter().all(|&r| r < n),
             "LU factor rows within 0..n"
         );
     }
 
-    /// L's strictly lower entries (faer stores the unit diagonal explicitly).
-    fn take_l(&mut self, lu: &SimplicialLu<usize, T>) {
-        let l = lu.l_factor_unsorted();
-        let (ptr, rows, vals) = (l.col_ptr(), l.row_idx(), l.val());
-        self.l_ptr.clear();
-        self.l_row.clear();
-        self.l_val.clear();
-        self.l_ptr.push(0);
-        for k in 0..self.n {
-            for p in ptr[k]..ptr[k + 1] {
-                if rows[p] != k {
-                    self.l_row.push(rows[p]);
-                    self.l_val.push(vals[p]);
-                }
-            }
-            self.l_ptr.push(self.l_row.len());
-        }
-    }
-
-    /// U's strictly upper entries, sorted by row in each column, and its diagonal.
-    fn take_u(&mut self, lu: &SimplicialLu<usize, T>) {
-        let u = lu.u_factor_unsorted();
-        let (ptr, rows, vals) = (u.col_ptr(), u.row_idx(), u.val());
-        self.u_ptr.clear();
-        self.u_row.clear();
-        self.u_val.clear();
-        self.u_diag.clear();
-        self.u_diag.resize(self.n, T::default());
-        self.u_ptr.push(0);
-        for k in 0..self.n {
-            let start = self.u_row.len();
-            for p in ptr[k]..ptr[k + 1] {
-                if rows[p] == k {
-                    self.u_diag[k] = vals[p];
-                } else {
-                    self.u_row.push(rows[p]);
-                    self.u_val.push(vals[p]);
-                }
-            }
-            let entries = &mut self.sort_scratch;
-            entries.clear();
-            entries.extend(
-                self.u_row[start..]
-                    .iter()
-                    .copied()
-                    .zip(self.u_val[start..].iter().copied()),
-            );
-            entries.sort_unstable_by_key(|e| e.0);
-            for (q, &(r, v)) in entries.iter().enumerate() {
-                self.u_row[start + q] = r;
-                self.u_val[start + q] = v;
-            }
-            self.u_ptr.push(self.u_row.len());
-        }
-    }
-
     /// Entries of L and U, diagonals included.
     pub fn nnz(&self) -> usize {
-        self.l_row.len() + self.u_row.len() + 2 * self.n
+        self.l.row.len() + self.u.row.len() + 2 * self.n
     }
 
     /// Refactors A (`values` on the pattern given to [`Self::rebuild`]) with the kept pivots;
@@ -186,21 +133,21 @@ impl<T: Scalar> StaticPivotLu<T> {
         for p in self.a_ptr[k]..self.a_ptr[k + 1] {
             x[self.a_row[p]] = values[self.a_pos[p]];
         }
-        let upper = self.u_ptr[k]..self.u_ptr[k + 1];
-        for (&j, u) in self.u_row[upper.clone()].iter().zip(&mut self.u_val[upper]) {
+        let upper = self.u.ptr[k]..self.u.ptr[k + 1];
+        for (&j, u) in self.u.row[upper.clone()].iter().zip(&mut self.u.val[upper]) {
             let ujk = x[j];
             x[j] = T::default();
             *u = ujk;
-            let col = self.l_ptr[j]..self.l_ptr[j + 1];
-            for (&i, &l) in self.l_row[col.clone()].iter().zip(&self.l_val[col]) {
+            let col = self.l.ptr[j]..self.l.ptr[j + 1];
+            for (&i, &l) in self.l.row[col.clone()].iter().zip(&self.l.val[col]) {
                 // SAFETY: factor rows are below n = x.len() (checked in `rebuild`).
                 unsafe { *x.get_unchecked_mut(i) -= l * ujk };
             }
         }
         let pivot = x[k];
         x[k] = T::default();
-        let lower = self.l_ptr[k]..self.l_ptr[k + 1];
-        let largest = self.l_row[lower.clone()]
+        let lower = self.l.ptr[k]..self.l.ptr[k + 1];
+        let largest = self.l.row[lower.clone()]
             .iter()
             .fold(0.0f64, |m, &i| m.max(x[i].magnitude()));
         let size = pivot.magnitude();
@@ -208,7 +155,7 @@ impl<T: Scalar> StaticPivotLu<T> {
             return false;
         }
         self.u_diag[k] = pivot;
-        for (&i, l) in self.l_row[lower.clone()].iter().zip(&mut self.l_val[lower]) {
+        for (&i, l) in self.l.row[lower.clone()].iter().zip(&mut self.l.val[lower]) {
             *l = x[i] / pivot;
             x[i] = T::default();
         }
@@ -223,8 +170,8 @@ impl<T: Scalar> StaticPivotLu<T> {
         }
         for k in 0..self.n {
             let yk = y[k];
-            let col = self.l_ptr[k]..self.l_ptr[k + 1];
-            for (&i, &l) in self.l_row[col.clone()].iter().zip(&self.l_val[col]) {
+            let col = self.l.ptr[k]..self.l.ptr[k + 1];
+            for (&i, &l) in self.l.row[col.clone()].iter().zip(&self.l.val[col]) {
                 // SAFETY: factor rows are below n = y.len() (checked in `rebuild`).
                 unsafe { *y.get_unchecked_mut(i) -= l * yk };
             }
@@ -232,8 +179,8 @@ impl<T: Scalar> StaticPivotLu<T> {
         for k in (0..self.n).rev() {
             let yk = y[k] / self.u_diag[k];
             y[k] = yk;
-            let col = self.u_ptr[k]..self.u_ptr[k + 1];
-            for (&j, &u) in self.u_row[col.clone()].iter().zip(&self.u_val[col]) {
+            let col = self.u.ptr[k]..self.u.ptr[k + 1];
+            for (&j, &u) in self.u.row[col.clone()].iter().zip(&self.u.val[col]) {
                 // SAFETY: as above.
                 unsafe { *y.get_unchecked_mut(j) -= u * yk };
             }
@@ -241,6 +188,60 @@ impl<T: Scalar> StaticPivotLu<T> {
         for (yk, &c) in y.iter_mut().zip(&self.col_perm) {
             rhs[c] = *yk;
             *yk = T::default();
+        }
+    }
+}
+
+/// A strict triangle by compressed columns.
+#[derive(Default)]
+struct Triangle<T> {
+    ptr: Vec<usize>,
+    row: Vec<usize>,
+    val: Vec<T>,
+}
+
+impl<T: Scalar> Triangle<T> {
+    /// The off-diagonal entries of a factor (storage reused); each diagonal entry goes to
+    /// `on_diagonal(column, value)`.
+    fn take_strict(
+        &mut self,
+        m: SparseColMatRef<'_, usize, T>,
+        mut on_diagonal: impl FnMut(usize, T),
+    ) {
+        let (ptr, rows, vals) = (m.col_ptr(), m.row_idx(), m.val());
+        self.ptr.clear();
+        self.row.clear();
+        self.val.clear();
+        self.ptr.push(0);
+        for k in 0..m.ncols() {
+            for p in ptr[k]..ptr[k + 1] {
+                if rows[p] == k {
+                    on_diagonal(k, vals[p]);
+                } else {
+                    self.row.push(rows[p]);
+                    self.val.push(vals[p]);
+                }
+            }
+            self.ptr.push(self.row.len());
+        }
+    }
+
+    /// Rows ascending in each column (`scratch` reused).
+    fn sort_columns(&mut self, scratch: &mut Vec<(usize, T)>) {
+        for k in 0..self.ptr.len() - 1 {
+            let col = self.ptr[k]..self.ptr[k + 1];
+            scratch.clear();
+            scratch.extend(
+                self.row[col.clone()]
+                    .iter()
+                    .copied()
+                    .zip(self.val[col.clone()].iter().copied()),
+            );
+            scratch.sort_unstable_by_key(|e| e.0);
+            for (q, &(r, v)) in col.zip(scratch.iter()) {
+                self.row[q] = r;
+                self.val[q] = v;
+            }
         }
     }
 }
