@@ -55,10 +55,10 @@ pub(super) fn evaluate(
             |a: usize, b: usize, k: &[[B3; _]]| {
                 for (rg, row) in k.iter().enumerate() {
                     for (yg, blk) in row.iter().enumerate() {
-                        for i in 0..3 {
+                        for (i, row) in blk.0.iter().enumerate() {
                             let r = (per * a + 3 * rg + i) * n + per * b + 3 * yg;
-                            for j in 0..3 {
-                                vals[pos[r + j]] += blk.0[i][j];
+                            for (&p, v) in pos[r..r + 3].iter().zip(row) {
+                                vals[p] += v;
                             }
                         }
                     }
@@ -68,7 +68,7 @@ pub(super) fn evaluate(
     }
     let (yl, rl_out) = (&yl[..n], Some(&mut rl[..n]));
     if ctx.ed() {
-        chained::<{ GEO + 6 }, U_GROUPS, Q_GROUPS, P_GROUPS, 4>(
+        chained::<{ GEO + 6 }, U_GROUPS, Q_GROUPS, O_GROUPS, P_GROUPS, 4>(
             el,
             ctx,
             yl,
@@ -77,9 +77,9 @@ pub(super) fn evaluate(
             emit!(),
         );
     } else if ctx.is_static() {
-        chained::<GEO, 2, 2, 3, 2>(el, ctx, yl, rl_out, [0, 2], emit!());
+        chained::<GEO, 2, 2, O_GROUPS, 3, 2>(el, ctx, yl, rl_out, [0, 2], emit!());
     } else {
-        chained::<GEO, 2, 2, 3, 2>(el, ctx, yl, rl_out, [0, 1], emit!());
+        chained::<GEO, 2, 2, 3, 3, 2>(el, ctx, yl, rl_out, [0, 1], emit!());
     }
     if !ctx.is_static() && !el.mass_damping.is_empty() {
         el.add_mass_damping(ctx, yl, &mut rl[..n]);
@@ -143,13 +143,20 @@ pub(super) fn decoupled_surrogate(
         }
     };
     let nn = el.nodes.len();
-    chained::<GEO, 2, 2, 3, 2>(el, &ep, &yl[..6 * nn], None, [0, 1], emit);
+    chained::<GEO, 2, 2, 3, 3, 2>(el, &ep, &yl[..6 * nn], None, [0, 1], emit);
 }
 
 /// [`evaluate`] with `N` dual directions per point, the row quantities `active` (`NU`), `NQ`
-/// node quantities, `NP` point inputs and `NY` unknown groups per node: the working arrays
-/// are no larger than the mode needs (they are zeroed on every call).
-fn chained<const N: usize, const NU: usize, const NQ: usize, const NP: usize, const NY: usize>(
+/// node quantities, `NO` point outputs, `NP` point inputs and `NY` unknown groups per node:
+/// the working arrays are no larger than the mode needs (they are zeroed on every call).
+fn chained<
+    const N: usize,
+    const NU: usize,
+    const NQ: usize,
+    const NO: usize,
+    const NP: usize,
+    const NY: usize,
+>(
     el: &BeamElement,
     ctx: &StepCtx,
     yl: &[f64],
@@ -163,22 +170,11 @@ fn chained<const N: usize, const NU: usize, const NQ: usize, const NP: usize, co
     // G[a][b][k][qg]: ∂u^a_active[k]/∂q^b accumulated over the points.
     let mut gab = [[[[B3::zero(); NQ]; NU]; MAX_NODES]; MAX_NODES];
     for g in 0..el.points.len() {
-        let (o, jac) = point_jacobian::<N>(el, ctx, g, &q);
+        let (o, jac) = point_jacobian::<N, NO, NP>(el, ctx, g, &q);
         el.add_row_quantities(g, &o, &mut u);
         let pt = &el.points[g];
         for a in 0..nn {
-            // W[k][pg] = ∂u^a_active[k]/∂p at this point.
-            let mut w = [[B3::zero(); NP]; NU];
-            for (wk, &ug) in w.iter_mut().zip(&active) {
-                for &(out, derivative, sign) in U_FROM[ug].iter() {
-                    let c = sign * if derivative { pt.dh[a] } else { pt.h[a] };
-                    if c != 0.0 {
-                        for (wkp, jp) in wk.iter_mut().zip(&jac[out]) {
-                            axpy(wkp, c, jp);
-                        }
-                    }
-                }
-            }
+            let w = row_weights::<NU, NO, NP>(pt, a, &jac, &active);
             for b in 0..nn {
                 for (pg, &(qg, derivative)) in P_FROM.iter().enumerate().take(NP) {
                     let c = if derivative { pt.dh[b] } else { pt.h[b] };
@@ -201,41 +197,68 @@ fn chained<const N: usize, const NU: usize, const NQ: usize, const NP: usize, co
     }
 }
 
-/// Point outputs and their Jacobian `∂o/∂p` in 3×3 blocks `[output group][input group]`:
-/// in closed form for a time step ([`closed_point_jacobian`]), by one dual pass in statics.
-fn point_jacobian<const N: usize>(
+/// `W[k][pg] = ∂u^a_active[k]/∂p` at point `pt`: its Jacobian `jac` weighted by node `a`'s
+/// shape functions as the row quantities take them ([`U_FROM`]).
+#[inline]
+fn row_weights<const NU: usize, const NO: usize, const NP: usize>(
+    pt: &crate::beam::element::GaussPoint,
+    a: usize,
+    jac: &[[B3; NP]; NO],
+    active: &[usize; NU],
+) -> [[B3; NP]; NU] {
+    let mut w = [[B3::zero(); NP]; NU];
+    for (wk, &ug) in w.iter_mut().zip(active) {
+        // Outputs past `NO` are zero in this mode (EP: D only).
+        for &(out, derivative, sign) in U_FROM[ug].iter().filter(|u| u.0 < NO) {
+            let c = sign * if derivative { pt.dh[a] } else { pt.h[a] };
+            if c != 0.0 {
+                for (wkp, jp) in wk.iter_mut().zip(&jac[out]) {
+                    axpy(wkp, c, jp);
+                }
+            }
+        }
+    }
+    w
+}
+
+/// Point outputs and their Jacobian `∂o/∂p` in 3×3 blocks `[output group][input group]`,
+/// the first `NO` outputs and `NP` inputs (the others are zero in the mode): in closed form
+/// for a time step ([`closed_point_jacobian`]), by one dual pass in statics.
+fn point_jacobian<const N: usize, const NO: usize, const NP: usize>(
     el: &BeamElement,
     ctx: &StepCtx,
     g: usize,
     q: &[[V3<f64>; Q_GROUPS]; MAX_NODES],
-) -> ([V3<f64>; O_GROUPS], [[B3; P_GROUPS]; O_GROUPS]) {
+) -> ([V3<f64>; O_GROUPS], [[B3; NP]; NO]) {
     let p = el.point_inputs(g, q);
     if ctx.is_static() {
-        return dual_point_jacobian::<N>(el, ctx, g, &p);
+        let (o, full) = dual_point_jacobian::<N>(el, ctx, g, &p);
+        return (o, std::array::from_fn(|og| std::array::from_fn(|pg| full[og][pg])));
     }
-    closed_point_jacobian(el, ctx, g, &p)
+    closed_point_jacobian::<NO, NP>(el, ctx, g, &p)
 }
 
-/// [`point_jacobian`] of a time step from [`closed_point_derivatives`].
-fn closed_point_jacobian(
+/// [`point_jacobian`] of a time step from [`closed_point_derivatives`]: EP's `NO = NP = 3`
+/// (D's outputs over the geometric inputs), ED's `NO = NP = 9`.
+fn closed_point_jacobian<const NO: usize, const NP: usize>(
     el: &BeamElement,
     ctx: &StepCtx,
     g: usize,
     p: &[V3<f64>; P_GROUPS],
-) -> ([V3<f64>; O_GROUPS], [[B3; P_GROUPS]; O_GROUPS]) {
-    let mut jac = [[B3::zero(); P_GROUPS]; O_GROUPS];
+) -> ([V3<f64>; O_GROUPS], [[B3; NP]; NO]) {
     if !ctx.ed() {
-        let (o, closed) = closed_point_derivatives::<3>(el, ctx, g, p);
-        for (row, c) in jac.iter_mut().zip(&closed) {
-            row[..3].copy_from_slice(c);
-        }
+        let (o, closed) = closed_point_derivatives::<3, NO>(el, ctx, g, p);
+        let jac = std::array::from_fn(|og| {
+            std::array::from_fn(|pg| if pg < 3 { closed[og][pg] } else { B3::zero() })
+        });
         return (o, jac);
     }
-    let (o, closed) = closed_point_derivatives::<CLOSED_DIRS>(el, ctx, g, p);
+    let (o, closed) = closed_point_derivatives::<CLOSED_DIRS, NO>(el, ctx, g, p);
+    let mut jac = [[B3::zero(); NP]; NO];
     for (row, c) in jac.iter_mut().zip(&closed) {
         row[..3].copy_from_slice(&c[..3]);
     }
-    let d_j: [[B3; 2]; O_GROUPS] = std::array::from_fn(|og| [closed[og][3], closed[og][4]]);
+    let d_j: [[B3; 2]; NO] = std::array::from_fn(|og| [closed[og][3], closed[og][4]]);
     velocity_columns(el, ctx, g, p, &d_j, &mut jac);
     (o, jac)
 }
@@ -304,18 +327,19 @@ fn strain_derivatives<const ND: usize>(
 ///   `δo₇ = −x̃′_f δo₆ + õ₆ δΔx′`, `δo₈ = w R_f δn_M − õ₈ a`, and at i the same without the
 ///   triad's variation.
 ///
-/// Returns the outputs, `∂o/∂p` for the geometric inputs and `∂o/∂ε_j` by strain half.
-fn closed_point_derivatives<const ND: usize>(
+/// Returns the outputs, `∂o/∂p` for the geometric inputs and `∂o/∂ε_j` by strain half, of
+/// the first `NO` outputs (EP: 3, the others being zero).
+fn closed_point_derivatives<const ND: usize, const NO: usize>(
     el: &BeamElement,
     ctx: &StepCtx,
     g: usize,
     p: &[V3<f64>; P_GROUPS],
-) -> ([V3<f64>; O_GROUPS], [[B3; ND]; O_GROUPS]) {
+) -> ([V3<f64>; O_GROUPS], [[B3; ND]; NO]) {
     let (ed, pt) = (ctx.ed(), &el.points[g]);
     assert_eq!(
-        ND,
-        if ed { CLOSED_DIRS } else { 3 },
-        "directions of the mode"
+        (ND, NO),
+        if ed { (CLOSED_DIRS, O_GROUPS) } else { (3, 3) },
+        "directions and outputs of the mode"
     );
     let (c, w) = (&pt.stiffness, pt.weight);
     let (rho, rho_p) = (&p[1], &p[2]);
@@ -339,7 +363,7 @@ fn closed_point_derivatives<const ND: usize>(
     let (n_f, n_m) = mean_forces(el, ctx, g, &ps, &eps_j);
     let xm_t = (ps.xp_i + ps.xp_f).scale_f(0.5).tilde();
     let hrm = ps.hm.mul_m(&ps.rm);
-    let mut jac = [[B3::zero(); ND]; O_GROUPS];
+    let mut jac = [[B3::zero(); ND]; NO];
     for k in 0..ND {
         jac[0][k] = ps.rm.mul_m(&mean_force(0, k));
         jac[2][k] = hrm.mul_m(&mean_force(1, k));
@@ -451,13 +475,13 @@ fn dual_point_jacobian<const N: usize>(
 /// ED: the outputs are affine in the velocity inputs, which act only through ε_j:
 /// `∂o/∂p_k = (∂o/∂ε_j) (∂ε_j/∂p_k)`, with `ε_j = ε_i + h/6 (B_i V_j − B_f V_f)`.
 /// `d_j[og][half]` is `∂o/∂ε_j` by strain half.
-fn velocity_columns(
+fn velocity_columns<const NO: usize, const NP: usize>(
     el: &BeamElement,
     ctx: &StepCtx,
     g: usize,
     p: &[V3<f64>; P_GROUPS],
-    d_j: &[[B3; 2]; O_GROUPS],
-    jac: &mut [[B3; P_GROUPS]; O_GROUPS],
+    d_j: &[[B3; 2]; NO],
+    jac: &mut [[B3; NP]; NO],
 ) {
     let ps = el.point_kinematics(ctx, g, &p[0], &p[1], &p[2]);
     let h6 = ctx.h / 6.0;
@@ -627,15 +651,24 @@ mod tests {
                 let q = el.node_quantities::<f64>(&c, &y);
                 for g in 0..el.points.len() {
                     let p = el.point_inputs(g, &q);
-                    let (o, jac) = closed_point_jacobian(&el, &c, g, &p);
                     let (od, jd) = dual_point_jacobian::<{ GEO + 6 }>(&el, &c, g, &p);
                     let scale = jd.iter().flatten().map(|b| b.max_abs()).fold(0.0, f64::max);
+                    // EP's closed form has D's outputs over the geometric inputs: the dual
+                    // pass's other blocks must be zero.
+                    let (o, jac): (_, Vec<Vec<B3>>) = if scheme == Scheme::Ed {
+                        let (o, j) = closed_point_jacobian::<O_GROUPS, P_GROUPS>(&el, &c, g, &p);
+                        (o, j.iter().map(|r| r.to_vec()).collect())
+                    } else {
+                        let (o, j) = closed_point_jacobian::<3, 3>(&el, &c, g, &p);
+                        (o, j.iter().map(|r| r.to_vec()).collect())
+                    };
                     for (a, b) in o.iter().zip(&od) {
                         assert!((*a - *b).max_abs() <= 1e-12 * a.max_abs().max(1.0));
                     }
-                    for (og, (ra, rb)) in jac.iter().zip(&jd).enumerate() {
-                        for (pg, (a, b)) in ra.iter().zip(rb).enumerate() {
-                            let e = (*a - *b).max_abs();
+                    for (og, rb) in jd.iter().enumerate() {
+                        for (pg, b) in rb.iter().enumerate() {
+                            let a = jac.get(og).and_then(|r| r.get(pg)).copied();
+                            let e = (a.unwrap_or(B3::zero()) - *b).max_abs();
                             let at = format!("{scheme:?} n={n} g={g} ∂o{og}/∂p{pg}");
                             assert!(e <= 1e-12 * scale, "{at}: {e:e}");
                         }
