@@ -16,7 +16,7 @@ use super::section::Mat6;
 use super::shape::MAX_NODES;
 use crate::elements::{add3, v3, Kernel, StepCtx};
 use crate::math::layout::Layout;
-use crate::math::rotation::{cayley, rotate_material};
+use crate::math::rotation::{cayley, cayley_rotate, rotate_material};
 use crate::math::scalar::Real;
 use crate::math::vec3::{M3, V3};
 
@@ -173,9 +173,22 @@ impl BeamElement {
     }
 
     /// Kinematics of Gauss point `g` from the i-state, its history and the local increments.
+    #[cfg(test)]
     fn point_step<T: Real>(&self, ctx: &StepCtx, g: usize, y: &[T]) -> PointStep<T> {
-        let p = self.point_inputs(g, &self.node_quantities(ctx, y));
-        self.point_kinematics(ctx, g, &p[0], &p[1], &p[2])
+        self.point_steps(ctx, y).nth(g).expect("a Gauss point of the element")
+    }
+
+    /// Every Gauss point's kinematics in order, the node quantities computed once.
+    fn point_steps<'a, T: Real + 'a>(
+        &'a self,
+        ctx: &'a StepCtx,
+        y: &[T],
+    ) -> impl Iterator<Item = PointStep<T>> + 'a {
+        let q = self.node_quantities(ctx, y);
+        (0..self.points.len()).map(move |g| {
+            let p = self.point_inputs(g, &q);
+            self.point_kinematics(ctx, g, &p[0], &p[1], &p[2])
+        })
     }
 
     /// Kinematics of Gauss point `g` from the interpolated increments `Δx′`, `ρ` and `ρ′`.
@@ -245,7 +258,7 @@ impl BeamElement {
                 q[a][3] = ri.mul_v(&wj);
                 q[a][4] = q[a][0].scale_f(2.0 * inv_h) - vj;
                 // R_f W_f = R_i cay(r)(2r/h − W_j) = R_i (2r/h − cay(r) W_j).
-                q[a][5] = ri.mul_v(&(r.scale_f(2.0 * inv_h) - cayley(&r).mul_v(&wj)));
+                q[a][5] = ri.mul_v(&(r.scale_f(2.0 * inv_h) - cayley_rotate(&r, &wj)));
             }
         }
         q
@@ -379,10 +392,11 @@ impl BeamElement {
         let mut res = vec![0.0; y.len()];
         self.add_mass_damping(ctx, y, &mut res);
         let mass: f64 = -res.iter().zip(y).map(|(r, v)| r * v).sum::<f64>();
-        let sections: f64 = (0..self.points.len())
-            .filter_map(|g| {
+        let sections: f64 = self
+            .point_steps::<f64>(ctx, y)
+            .enumerate()
+            .filter_map(|(g, ps)| {
                 let d = self.points[g].damping.as_ref()?;
-                let ps = self.point_step::<f64>(ctx, g, y);
                 let rate = Self::strain_rate_over_step(ctx, &ps);
                 let n = mat6_mul(d, &rate);
                 Some(-ctx.h * self.points[g].weight * (0..6).map(|k| n[k] * rate[k]).sum::<f64>())
@@ -638,9 +652,9 @@ impl BeamElement {
         let h = ctx.h;
         let nn = self.nodes.len();
         let (rot_i, rot_f, vel_j, vel_f) = self.ed_motion(ctx, y);
-        (0..self.points.len())
-            .map(|g| {
-                let ps = self.point_step::<f64>(ctx, g, y);
+        self.point_steps::<f64>(ctx, y)
+            .enumerate()
+            .map(|(g, ps)| {
                 let bi = self.strain_rate(g, &ps.rg_i, &ps.xp_i, &rot_i[..nn], &vel_j[..nn]);
                 let bf = self.strain_rate(g, &ps.rg_f, &ps.xp_f, &rot_f[..nn], &vel_f[..nn]);
                 let d: [f64; 6] = std::array::from_fn(|k| (bi[k] - bf[k]) * h / 6.0);
@@ -652,8 +666,7 @@ impl BeamElement {
 
     /// The element's history at the end of a converged step (the local block `y`).
     pub fn history_f(&self, ctx: &StepCtx, y: &[f64], out: &mut [f64]) {
-        for g in 0..self.points.len() {
-            let ps = self.point_step::<f64>(ctx, g, y);
+        for (g, ps) in self.point_steps::<f64>(ctx, y).enumerate() {
             let k = V3([ps.eps_f[3], ps.eps_f[4], ps.eps_f[5]]) + self.points[g].k0;
             write_history(
                 &mut out[g * HISTORY_PER_POINT..],
