@@ -14,7 +14,7 @@
 
 use super::{add3, v3, Kernel, StepCtx};
 use crate::math::rotation::{inv_i_minus_half_tilde, rotate_material};
-use crate::math::scalar::{Dual, Real};
+use crate::math::scalar::Real;
 use crate::math::vec3::{M3, V3};
 
 /// A steady rotation at angular velocity `omega` (inertial frame, rad/s) about the axis through
@@ -68,14 +68,35 @@ fn rotational_row<T: Real>(j: &M3<T>, r: &V3<T>, wa: &V3<T>, wb: &V3<T>, h: f64)
         .scale_f(1.0 / h)
 }
 
+/// [`rotational_row`] `f = B(ρ) z / h` with its derivatives `(∂f/∂ρ, ∂f/∂W_b)`, where
+/// `B = (I − ρ̃/2)⁻¹` and `z = J (W_b − W_a) + ½ ρ̃ J (W_b + W_a)`: from `dB = ½ B δ̃ B`,
+/// `∂f/∂ρ = B (−½ (J(W_b + W_a))~ − ½ (B z)~)/h` and `∂f/∂W_b = B (J + ½ ρ̃ J)/h`.
+fn rotational_row_jacobian(
+    j: &M3<f64>,
+    rho: &V3<f64>,
+    wa: &V3<f64>,
+    wb: &V3<f64>,
+    h: f64,
+) -> (V3<f64>, M3<f64>, M3<f64>) {
+    let b = inv_i_minus_half_tilde(rho);
+    let js = j.mul_v(&(*wb + *wa));
+    let z = j.mul_v(&(*wb - *wa)) + rho.cross(&js).scale_f(0.5);
+    let bz = b.mul_v(&z);
+    let d_rho = b
+        .mul_m(&(js.tilde() + bz.tilde()))
+        .scale_f(-0.5 / h);
+    let d_wb = b.mul_m(&(*j + rho.tilde().mul_m(j).scale_f(0.5))).scale_f(1.0 / h);
+    (bz.scale_f(1.0 / h), d_rho, d_wb)
+}
+
 impl Kernel for NodeInertia {
     fn unknowns(&self) -> &[usize] {
         &self.unknowns
     }
 
     /// Time steps: the translational rows are linear (`2m/h²` on Δx; under ED `∓m/h²` on the
-    /// jump), written by hand; the rotational rows depend on `r` (and under ED `W_j`) only, so
-    /// one dual pass of 3 (6) directions differentiates them instead of one of 6 (12).
+    /// jump) and the rotational rows depend on `r` (and under ED `h W_j`) only, both written
+    /// in closed form ([`rotational_row_jacobian`]); statics take the generic dual pass.
     fn evaluate(
         &self,
         ctx: &StepCtx,
@@ -84,13 +105,7 @@ impl Kernel for NodeInertia {
         jac: Option<(&mut [f64], &[usize])>,
     ) {
         match jac {
-            Some((vals, pos)) if !ctx.is_static() => {
-                if ctx.ed() {
-                    self.split_tangent::<6>(ctx, y, res, vals, pos)
-                } else {
-                    self.split_tangent::<3>(ctx, y, res, vals, pos)
-                }
-            }
+            Some((vals, pos)) if !ctx.is_static() => self.step_tangent(ctx, y, res, vals, pos),
             jac => super::eval_kernel(self, ctx, y, res, jac),
         }
     }
@@ -150,8 +165,10 @@ impl Kernel for NodeInertia {
 }
 
 impl NodeInertia {
-    /// See [`Kernel::evaluate`]: `W` = 3 (EP: `r`) or 6 (ED: `r`, `h W_j`).
-    fn split_tangent<const W: usize>(
+    /// See [`Kernel::evaluate`]. With `W_f = 2r/h − W_s` (`W_s` = `W_i` under EP, `W_j =
+    /// y_9/h` under ED) and ED's `r_j = h (W_j − W_f)/6 = (y_9 − r)/3`, the rotational rows'
+    /// derivatives follow from those of [`rotational_row_jacobian`] by the chain rule.
+    fn step_tangent(
         &self,
         ctx: &StepCtx,
         y: &[f64],
@@ -160,34 +177,51 @@ impl NodeInertia {
         pos: &[usize],
     ) {
         let n = self.unknowns.len();
-        // Seeded: r (slots 3–5) and, under ED, h W_j (slots 9–11).
-        let dir = |l: usize| match l {
-            3..=5 => Some(l - 3),
-            9..=11 => Some(l - 6),
-            _ => None,
+        let mut rl = [0.0; 12];
+        self.residual(ctx, &y_local(self, y), &mut rl[..n]);
+        for (&g, r) in self.unknowns.iter().zip(&rl) {
+            res[g] += r;
+        }
+        let mut put = |row: usize, col: usize, blk: &M3<f64>| {
+            for (i, bi) in blk.0.iter().enumerate() {
+                for (k, v) in bi.iter().enumerate() {
+                    vals[pos[(row + i) * n + col + k]] += v;
+                }
+            }
         };
-        let mut yd = [Dual::<W>::constant(0.0); 12];
-        for (l, &g) in self.unknowns.iter().enumerate() {
-            yd[l] = Dual::seeded(y[g], dir(l));
+        let h = ctx.h;
+        let k = M3::<f64>::identity().scale_f(self.mass / (h * h));
+        put(0, 0, &k.scale_f(2.0));
+        let ni = &ctx.state.nodes[self.node];
+        let r = V3([y[self.unknowns[3]], y[self.unknowns[4]], y[self.unknowns[5]]]);
+        if !ctx.ed() {
+            let wf = r.scale_f(2.0 / h) - ni.w;
+            let (_, d_rho, d_wb) = rotational_row_jacobian(&self.inertia, &r, &ni.w, &wf, h);
+            put(3, 3, &(d_rho + d_wb.scale_f(2.0 / h)));
+            return;
         }
-        let mut rd = [Dual::<W>::constant(0.0); 12];
-        self.residual(ctx, &yd[..n], &mut rd[..n]);
-        let mut put = |row: usize, col: usize, v: f64| vals[pos[row * n + col]] += v;
-        for (i, r) in rd[..n].iter().enumerate() {
-            res[self.unknowns[i]] += r.re;
-            for (l, d) in (0..n).filter_map(|l| dir(l).map(|d| (l, d))) {
-                put(i, l, r.du[d]);
-            }
-        }
-        let k = self.mass / (ctx.h * ctx.h);
-        for c in 0..3 {
-            put(c, c, 2.0 * k);
-            if ctx.ed() {
-                put(c, 6 + c, -k);
-                put(6 + c, 6 + c, k);
-            }
-        }
+        put(0, 6, &k.scale_f(-1.0));
+        put(6, 6, &k);
+        let y9 = V3([y[self.unknowns[9]], y[self.unknowns[10]], y[self.unknowns[11]]]);
+        let wj = y9.scale_f(1.0 / h);
+        let wf = r.scale_f(2.0 / h) - wj;
+        let (_, d_rho, d_wb) = rotational_row_jacobian(&self.inertia, &r, &ni.w, &wf, h);
+        put(3, 3, &(d_rho + d_wb.scale_f(2.0 / h)));
+        put(3, 9, &d_wb.scale_f(-1.0 / h));
+        let rj = (y9 - r).scale_f(1.0 / 3.0);
+        let (_, d_rho, d_wb) = rotational_row_jacobian(&self.inertia, &rj, &ni.w, &wj, h);
+        put(9, 3, &d_rho.scale_f(-1.0 / 3.0));
+        put(9, 9, &(d_rho.scale_f(1.0 / 3.0) + d_wb.scale_f(1.0 / h)));
     }
+}
+
+/// The kernel's unknowns gathered from the global vector.
+fn y_local(k: &NodeInertia, y: &[f64]) -> [f64; 12] {
+    let mut yl = [0.0; 12];
+    for (l, &g) in k.unknowns.iter().enumerate() {
+        yl[l] = y[g];
+    }
+    yl
 }
 
 #[cfg(test)]
