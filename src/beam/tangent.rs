@@ -16,7 +16,7 @@ use super::element::{
     mat6_mul, BeamElement, PointStep, O_GROUPS, P_FROM, P_GROUPS, Q_GROUPS, U_FROM, U_GROUPS,
 };
 use super::shape::MAX_NODES;
-use crate::elements::{v3, StepCtx, MAX_LOCAL};
+use crate::elements::{v3, StepCtx};
 use crate::math::layout::Layout;
 use crate::math::layout::Scheme;
 use crate::math::rotation::{cayley, cayley_tangent, rodrigues_h};
@@ -24,6 +24,9 @@ use crate::math::scalar::Dual;
 use crate::math::vec3::{M3, V3};
 
 type B3 = M3<f64>;
+
+/// An element's unknowns at most: 12 per node under ED.
+const MAX_ELEMENT: usize = 12 * MAX_NODES;
 
 /// Directions of the per-point dual pass: the geometric inputs `Δx′, ρ, ρ′` (9), and under
 /// ED the offsets of ε_j (6).
@@ -43,11 +46,11 @@ pub(super) fn evaluate(
 ) {
     let idx = crate::elements::Kernel::unknowns(el);
     let n = idx.len();
-    let mut yl = [0.0f64; MAX_LOCAL];
+    let mut yl = [0.0f64; MAX_ELEMENT];
     for (l, &g) in idx.iter().enumerate() {
         yl[l] = y[g];
     }
-    let mut rl = [0.0f64; MAX_LOCAL];
+    let mut rl = [0.0f64; MAX_ELEMENT];
     let per = n / el.nodes.len();
     // Block (a, b)'s entries into the element's row-major tangent.
     macro_rules! emit {
@@ -115,7 +118,7 @@ pub(super) fn decoupled_surrogate(
     crate::elements::eval_kernel(el, ctx, y, res, None);
     let idx = crate::elements::Kernel::unknowns(el);
     let n = idx.len();
-    let mut yl = [0.0f64; MAX_LOCAL];
+    let mut yl = [0.0f64; MAX_ELEMENT];
     for (a, node) in idx.chunks(12).enumerate() {
         for k in 0..6 {
             yl[6 * a + k] = y[node[k]];
@@ -199,7 +202,7 @@ fn chained<
 
 /// `W[k][pg] = ∂u^a_active[k]/∂p` at point `pt`: its Jacobian `jac` weighted by node `a`'s
 /// shape functions as the row quantities take them ([`U_FROM`]).
-#[inline]
+#[inline(always)]
 fn row_weights<const NU: usize, const NO: usize, const NP: usize>(
     pt: &crate::beam::element::GaussPoint,
     a: usize,
@@ -506,9 +509,9 @@ fn velocity_columns<const NO: usize, const NP: usize>(
 /// the nodal rotations on the row side, and the derivative of `R_fᵀ` on the diagonal.
 /// `NQ` node quantities and `NY` unknown groups per node, as in [`chained`].
 struct NodalMaps<const NQ: usize, const NY: usize> {
-    /// `Q[b][qg][yg]` (zero blocks skipped by `q_used`).
+    /// `Q[b][qg][yg]`, with its kind (zero blocks skipped, multiples of the identity scaled).
     q: [[[B3; NY]; NQ]; MAX_NODES],
-    q_used: [[[bool; NY]; NQ]; MAX_NODES],
+    q_kind: [[[BlockKind; NY]; NQ]; MAX_NODES],
     /// `R_iᵀ`, `R_fᵀ` per node.
     ri_t: [B3; MAX_NODES],
     rf_t: [B3; MAX_NODES],
@@ -529,7 +532,7 @@ impl<const NQ: usize, const NY: usize> NodalMaps<NQ, NY> {
         let per = if ed { 12 } else { 6 };
         let mut m = NodalMaps {
             q: [[[B3::zero(); NY]; NQ]; MAX_NODES],
-            q_used: [[[false; NY]; NQ]; MAX_NODES],
+            q_kind: [[[BlockKind::Zero; NY]; NQ]; MAX_NODES],
             ri_t: [B3::identity(); MAX_NODES],
             rf_t: [B3::identity(); MAX_NODES],
             diag: [B3::zero(); MAX_NODES],
@@ -565,9 +568,9 @@ impl<const NQ: usize, const NY: usize> NodalMaps<NQ, NY> {
                 q[5][1] = ri.mul_m(&(id.scale_f(2.0 * inv_h) + cay.mul_m(&wj.tilde()).mul_m(&t)));
                 q[5][3] = ri.mul_m(&cay).scale_f(-inv_h);
             }
-            for (used, q) in m.q_used[b].iter_mut().zip(&m.q[b]) {
-                for (u, blk) in used.iter_mut().zip(q) {
-                    *u = nonzero(blk);
+            for (kinds, q) in m.q_kind[b].iter_mut().zip(&m.q[b]) {
+                for (kind, blk) in kinds.iter_mut().zip(q) {
+                    *kind = BlockKind::of(blk);
                 }
             }
         }
@@ -583,27 +586,40 @@ impl<const NQ: usize, const NY: usize> NodalMaps<NQ, NY> {
         g: &[[B3; NQ]; NU],
         active: &[usize; NU],
     ) -> [[B3; NY]; NY] {
-        // GQ[ug][yg] = Σ_qg G[ug][qg] Q^b[qg][yg].
-        let mut gq = [[B3::zero(); NY]; U_GROUPS];
-        for (gk, &ug) in g.iter().zip(active) {
+        // GQ[k][yg] = Σ_qg G[k][qg] Q^b[qg][yg], k the position in `active`.
+        let mut gq = [[B3::zero(); NY]; NU];
+        for (gk, gqk) in g.iter().zip(gq.iter_mut()) {
             for (qg, gblk) in gk.iter().enumerate() {
-                for yg in 0..NY {
-                    if self.q_used[b][qg][yg] {
-                        gq[ug][yg] = gq[ug][yg] + gblk.mul_m(&self.q[b][qg][yg]);
+                for (yg, out) in gqk.iter_mut().enumerate() {
+                    match self.q_kind[b][qg][yg] {
+                        BlockKind::Zero => {}
+                        BlockKind::Identity(c) => axpy(out, c, gblk),
+                        BlockKind::Full => *out = *out + gblk.mul_m(&self.q[b][qg][yg]),
                     }
                 }
             }
         }
+        // Row quantity `ug`'s blocks (None: not active in this mode, zero).
+        let row = |ug: usize| active.iter().position(|&u| u == ug).map(|k| &gq[k]);
         let mut k = [[B3::zero(); NY]; NY];
-        for yg in 0..NY {
-            k[0][yg] = gq[0][yg];
-            k[1][yg] = self.ri_t[a].mul_m(&gq[1][yg]);
-            if self.at_f {
-                k[1][yg] = k[1][yg] + self.rf_t[a].mul_m(&gq[2][yg]);
+        k[0] = *row(0).expect("the f-force is always active");
+        if let Some(u1) = row(1) {
+            for (kb, u) in k[1].iter_mut().zip(u1) {
+                *kb = self.ri_t[a].mul_m(u);
             }
-            if self.ed {
-                k[2][yg] = gq[3][yg];
-                k[3][yg] = self.ri_t[a].mul_m(&gq[4][yg]) - self.rf_t[a].mul_m(&gq[2][yg]);
+        }
+        if let Some(u2) = row(2) {
+            for (kb, u) in k[1].iter_mut().zip(u2) {
+                *kb = *kb + self.rf_t[a].mul_m(u);
+            }
+        }
+        if self.ed {
+            let (Some(u2), Some(u3), Some(u4)) = (row(2), row(3), row(4)) else {
+                unreachable!("ED chains every row quantity")
+            };
+            for yg in 0..NY {
+                k[2][yg] = u3[yg];
+                k[3][yg] = self.ri_t[a].mul_m(&u4[yg]) - self.rf_t[a].mul_m(&u2[yg]);
             }
         }
         if a == b && self.at_f {
@@ -625,9 +641,25 @@ fn axpy(y: &mut B3, c: f64, x: &B3) {
     }
 }
 
-#[inline]
-fn nonzero(m: &B3) -> bool {
-    m.0.iter().flatten().any(|&v| v != 0.0)
+/// What multiplying by a 3×3 block takes: nothing, a scaling, or a matrix product.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum BlockKind {
+    Zero,
+    /// `c I`.
+    Identity(f64),
+    Full,
+}
+
+impl BlockKind {
+    fn of(m: &B3) -> Self {
+        let c = m.0[0][0];
+        let diagonal = (0..3).all(|i| (0..3).all(|j| i == j || m.0[i][j] == 0.0));
+        match (diagonal && m.0[1][1] == c && m.0[2][2] == c, c == 0.0) {
+            (true, true) => BlockKind::Zero,
+            (true, false) => BlockKind::Identity(c),
+            (false, _) => BlockKind::Full,
+        }
+    }
 }
 
 #[cfg(test)]
