@@ -42,10 +42,12 @@ use faer::c64;
 const SQRT2: f64 = std::f64::consts::SQRT_2;
 
 pub struct DecoupledMatrix {
-    layout: Layout,
     matrix: NewtonMatrix<c64>,
     /// `(position in the complex matrix, position in the real ED tangent, coefficient)`.
     gather: Vec<(usize, usize, c64)>,
+    /// Per pair: its two real unknowns and whether they are multipliers (`Layout::unpair`,
+    /// `Layout::pair_is_multiplier`, looked up once).
+    pairs: Vec<(usize, usize, bool)>,
     rhs: Vec<c64>,
 }
 
@@ -108,20 +110,26 @@ impl DecoupledMatrix {
                 (at, p, coef)
             })
             .collect();
+        let pairs = (0..np)
+            .map(|p| {
+                let (a, b) = layout.unpair(p);
+                (a, b, layout.pair_is_multiplier(p))
+            })
+            .collect();
         DecoupledMatrix {
-            layout,
             matrix: NewtonMatrix::from_pattern(np, c_ptr, c_rows),
             gather,
+            pairs,
             rhs: vec![c64::new(0.0, 0.0); np],
         }
     }
 
-    /// Forms the complex matrix from the assembled real ED tangent `values` and factors it.
     /// Factorizations that chose their pivots (the others reused an earlier one's).
     pub fn pivoting_factorizations(&self) -> usize {
         self.matrix.numeric_factorizations - self.matrix.refactorizations
     }
 
+    /// Forms the complex matrix from the assembled real ED tangent `values` and factors it.
     pub fn factor(&mut self, values: &[f64]) -> Result<(), String> {
         self.matrix.clear();
         let m = &mut self.matrix.values;
@@ -134,20 +142,17 @@ impl DecoupledMatrix {
     /// Replaces the ED residual `res` by the update the complex factors give (see the module
     /// notes; the exact Newton update for a linear system).
     pub fn solve(&mut self, res: &mut [f64]) {
-        let l = &self.layout;
-        for (p, g) in self.rhs.iter_mut().enumerate() {
-            let (a, b) = l.unpair(p);
+        for (g, &(a, b, multiplier)) in self.rhs.iter_mut().zip(&self.pairs) {
             let (first, second) = (res[a], res[b]);
-            *g = if l.pair_is_multiplier(p) {
+            *g = if multiplier {
                 c64::new(0.5 * first, -(0.5 * first + 0.25 * second) / SQRT2)
             } else {
                 c64::new(0.25 * (first + second), -0.5 * second / SQRT2)
             };
         }
         self.matrix.solve(&mut self.rhs);
-        for (p, z) in self.rhs.iter().enumerate() {
-            let (a, b) = l.unpair(p);
-            if l.pair_is_multiplier(p) {
+        for (z, &(a, b, multiplier)) in self.rhs.iter().zip(&self.pairs) {
+            if multiplier {
                 res[a] = 2.0 * (2.0 * z.re + SQRT2 * z.im);
                 res[b] = 12.0 * SQRT2 * z.im;
             } else {
