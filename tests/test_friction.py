@@ -281,8 +281,12 @@ def test_friction_never_adds_energy_and_ed_never_gains_any():
     m.sensor("energy", "E")
     m.simulation(t_end=0.5)
     res = fd.simulate(m)
-    # It stops and breaks away again as the beam bounces (measured 3 mode changes).
-    assert np.sum(np.abs(np.diff(res["f.stick"].values))) >= 2
+    # It slips, then stops and sticks on the bouncing beam. (It may also break away for an
+    # instant where the normal force dips, and stop again — a knife-edge event: ±0.025 % of
+    # the initial speed adds or removes it, and so does round-off; breakaways are asserted by
+    # the ringing-collar test.)
+    assert np.sum(np.abs(np.diff(res["f.stick"].values))) >= 1
+    assert res["f.stick"].values[0] == 0 and res["f.stick"].values.max() == 1
     d = res["f.dissipation"].values
     assert d[-1] > 0 and np.all(np.diff(d) >= -1e-12 * d[-1])
     e = res["E.total"].values

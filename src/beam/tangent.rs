@@ -58,9 +58,9 @@ pub(super) fn evaluate(
             |a: usize, b: usize, k: &[[B3; _]]| {
                 for (rg, row) in k.iter().enumerate() {
                     for (yg, blk) in row.iter().enumerate() {
-                        for (i, row) in blk.0.iter().enumerate() {
+                        for (i, entries) in blk.0.iter().enumerate() {
                             let r = (per * a + 3 * rg + i) * n + per * b + 3 * yg;
-                            for (&p, v) in pos[r..r + 3].iter().zip(row) {
+                            for (&p, v) in pos[r..r + 3].iter().zip(entries) {
                                 vals[p] += v;
                             }
                         }

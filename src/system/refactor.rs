@@ -23,6 +23,7 @@ pub trait Scalar: Copy + Default + Mul<Output = Self> + Div<Output = Self> + Sub
     /// A magnitude for pivot comparisons (the 1-norm for complex numbers: within √2 of the
     /// modulus, and without a square root).
     fn magnitude(self) -> f64;
+    /// The multiplicative identity.
     fn one() -> Self;
     /// Whether wider vector instructions pay for this type's kernels (see
     /// [`StaticPivotLu::solve`]).
@@ -73,6 +74,7 @@ pub struct StaticPivotLu<T> {
     /// One column of U being sorted (`rebuild`).
     sort_scratch: Vec<(usize, T)>,
     /// Run the baseline kernels even where wider instructions would pay (tests compare).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     portable_only: bool,
 }
 
