@@ -175,7 +175,9 @@ impl BeamElement {
     /// Kinematics of Gauss point `g` from the i-state, its history and the local increments.
     #[cfg(test)]
     fn point_step<T: Real>(&self, ctx: &StepCtx, g: usize, y: &[T]) -> PointStep<T> {
-        self.point_steps(ctx, y).nth(g).expect("a Gauss point of the element")
+        self.point_steps(ctx, y)
+            .nth(g)
+            .expect("a Gauss point of the element")
     }
 
     /// Every Gauss point's kinematics in order, the node quantities computed once.

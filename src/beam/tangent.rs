@@ -236,7 +236,10 @@ fn point_jacobian<const N: usize, const NO: usize, const NP: usize>(
     let p = el.point_inputs(g, q);
     if ctx.is_static() {
         let (o, full) = dual_point_jacobian::<N>(el, ctx, g, &p);
-        return (o, std::array::from_fn(|og| std::array::from_fn(|pg| full[og][pg])));
+        return (
+            o,
+            std::array::from_fn(|og| std::array::from_fn(|pg| full[og][pg])),
+        );
     }
     closed_point_jacobian::<NO, NP>(el, ctx, g, &p)
 }

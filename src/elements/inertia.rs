@@ -82,10 +82,10 @@ fn rotational_row_jacobian(
     let js = j.mul_v(&(*wb + *wa));
     let z = j.mul_v(&(*wb - *wa)) + rho.cross(&js).scale_f(0.5);
     let bz = b.mul_v(&z);
-    let d_rho = b
-        .mul_m(&(js.tilde() + bz.tilde()))
-        .scale_f(-0.5 / h);
-    let d_wb = b.mul_m(&(*j + rho.tilde().mul_m(j).scale_f(0.5))).scale_f(1.0 / h);
+    let d_rho = b.mul_m(&(js.tilde() + bz.tilde())).scale_f(-0.5 / h);
+    let d_wb = b
+        .mul_m(&(*j + rho.tilde().mul_m(j).scale_f(0.5)))
+        .scale_f(1.0 / h);
     (bz.scale_f(1.0 / h), d_rho, d_wb)
 }
 
@@ -177,8 +177,9 @@ impl NodeInertia {
         pos: &[usize],
     ) {
         let n = self.unknowns.len();
+        let yl = y_local(self, y);
         let mut rl = [0.0; 12];
-        self.residual(ctx, &y_local(self, y), &mut rl[..n]);
+        self.residual(ctx, &yl[..n], &mut rl[..n]);
         for (&g, r) in self.unknowns.iter().zip(&rl) {
             res[g] += r;
         }
@@ -193,7 +194,7 @@ impl NodeInertia {
         let k = M3::<f64>::identity().scale_f(self.mass / (h * h));
         put(0, 0, &k.scale_f(2.0));
         let ni = &ctx.state.nodes[self.node];
-        let r = V3([y[self.unknowns[3]], y[self.unknowns[4]], y[self.unknowns[5]]]);
+        let r = v3(&yl, 3);
         if !ctx.ed() {
             let wf = r.scale_f(2.0 / h) - ni.w;
             let (_, d_rho, d_wb) = rotational_row_jacobian(&self.inertia, &r, &ni.w, &wf, h);
@@ -202,7 +203,7 @@ impl NodeInertia {
         }
         put(0, 6, &k.scale_f(-1.0));
         put(6, 6, &k);
-        let y9 = V3([y[self.unknowns[9]], y[self.unknowns[10]], y[self.unknowns[11]]]);
+        let y9 = v3(&yl, 9);
         let wj = y9.scale_f(1.0 / h);
         let wf = r.scale_f(2.0 / h) - wj;
         let (_, d_rho, d_wb) = rotational_row_jacobian(&self.inertia, &r, &ni.w, &wf, h);
