@@ -448,6 +448,13 @@ impl BeamElement {
         ps: &PointStep<T>,
         p: &[V3<T>; P_GROUPS],
     ) -> [T; 6] {
+        let jump = Self::strain_jump(ctx, ps, p);
+        std::array::from_fn(|k| ps.eps_i[k] + jump[k])
+    }
+
+    /// ED's strain jump `ε_j − ε_i = h/6 (B_i V_j − B_f V_f)` of a point, from its inputs
+    /// (the velocities' interpolations, [`P_FROM`]).
+    fn strain_jump<T: Real>(ctx: &StepCtx, ps: &PointStep<T>, p: &[V3<T>; P_GROUPS]) -> [T; 6] {
         let h6 = ctx.h / 6.0;
         let bi_e = ps.rg_i.tmul_v(&(p[3] + ps.xp_i.cross(&p[4])));
         let bi_k = ps.rg_i.tmul_v(&p[5]);
@@ -459,7 +466,7 @@ impl BeamElement {
             } else {
                 (bi_k.0[k - 3], bf_k.0[k - 3])
             };
-            ps.eps_i[k] + (bi - bf) * h6
+            (bi - bf) * h6
         })
     }
 
@@ -587,6 +594,7 @@ impl BeamElement {
 
     /// ED: nodal rotations at i and f, and nodal velocities (v, material W) of the j- and
     /// f-states, from the local unknowns (jump velocities carried as h·V_j, system::layout).
+    #[cfg(test)]
     #[allow(clippy::type_complexity)]
     fn ed_motion<T: Real>(
         &self,
@@ -648,34 +656,38 @@ impl BeamElement {
             .collect()
     }
 
-    /// ED: `½ Σ_g w (ε_j − ε_i)ᵀ C (ε_j − ε_i)`, the strain-jump part of the numerical
-    /// dissipation of a converged step (`y` is the local block).
-    pub fn jump_dissipation(&self, ctx: &StepCtx, y: &[f64]) -> f64 {
-        let h = ctx.h;
-        let nn = self.nodes.len();
-        let (rot_i, rot_f, vel_j, vel_f) = self.ed_motion(ctx, y);
-        self.point_steps::<f64>(ctx, y)
-            .enumerate()
-            .map(|(g, ps)| {
-                let bi = self.strain_rate(g, &ps.rg_i, &ps.xp_i, &rot_i[..nn], &vel_j[..nn]);
-                let bf = self.strain_rate(g, &ps.rg_f, &ps.xp_f, &rot_f[..nn], &vel_f[..nn]);
-                let d: [f64; 6] = std::array::from_fn(|k| (bi[k] - bf[k]) * h / 6.0);
-                let n = mat6_mul(&self.points[g].stiffness, &d);
-                0.5 * self.points[g].weight * (0..6).map(|k| n[k] * d[k]).sum::<f64>()
-            })
-            .sum()
-    }
-
     /// The element's history at the end of a converged step (the local block `y`).
     pub fn history_f(&self, ctx: &StepCtx, y: &[f64], out: &mut [f64]) {
-        for (g, ps) in self.point_steps::<f64>(ctx, y).enumerate() {
-            let k = V3([ps.eps_f[3], ps.eps_f[4], ps.eps_f[5]]) + self.points[g].k0;
+        self.history_and_jump(ctx, y, out, false);
+    }
+
+    /// [`Self::history_f`] and, under ED, the strain-jump part of the step's numerical
+    /// dissipation, `½ Σ_g w (ε_j − ε_i)ᵀ C (ε_j − ε_i)` (0 under EP), in one pass over the
+    /// points. The jump is the one the residual's D-part uses ([`Self::strain_jump`]), so
+    /// the step's energy identity closes on it.
+    pub fn end_of_step(&self, ctx: &StepCtx, y: &[f64], out: &mut [f64]) -> f64 {
+        self.history_and_jump(ctx, y, out, ctx.ed())
+    }
+
+    fn history_and_jump(&self, ctx: &StepCtx, y: &[f64], out: &mut [f64], jump: bool) -> f64 {
+        let q = self.node_quantities(ctx, y);
+        let mut dissipation = 0.0;
+        for (g, pt) in self.points.iter().enumerate() {
+            let p = self.point_inputs(g, &q);
+            let ps = self.point_kinematics(ctx, g, &p[0], &p[1], &p[2]);
+            let k = V3([ps.eps_f[3], ps.eps_f[4], ps.eps_f[5]]) + pt.k0;
             write_history(
                 &mut out[g * HISTORY_PER_POINT..],
                 &crate::math::rotation::orthonormalize(&ps.rg_f),
                 &k,
             );
+            if jump {
+                let d = Self::strain_jump(ctx, &ps, &p);
+                let n = mat6_mul(&pt.stiffness, &d);
+                dissipation += 0.5 * pt.weight * (0..6).map(|k| n[k] * d[k]).sum::<f64>();
+            }
         }
+        dissipation
     }
 
     /// Gathers the element's local unknowns from the global vector.
@@ -1021,6 +1033,40 @@ pub(crate) mod tests {
                     // O(1) rates; a linear operator's columns reproduce them to round-off.
                     assert!((product[r] - direct[r]).abs() < 1e-13, "n={n} g={g} r={r}");
                     assert!(still[r].abs() < 1e-13, "n={n} g={g} r={r}: {}", still[r]);
+                }
+            }
+        }
+    }
+
+    /// ED's strain jump as the residual forms it from the interpolated velocities
+    /// (`strain_jump`, which the numerical dissipation reports) against its definition
+    /// `h/6 (B_i V_j − B_f V_f)` by the strain-rate operator at i and at f, node velocities
+    /// rotated per node: the same to round-off on the stressed, moving fixture at increments of
+    /// ~0.3 rad (a 1e-9 change of either route fails).
+    #[test]
+    fn strain_jump_is_the_strain_rate_operators_difference() {
+        for n in 2..=4 {
+            let (el, state, layout) = fixture(n, Scheme::Ed);
+            let c = ctx(layout, &state);
+            let y: Vec<f64> = (0..layout.n_unknowns())
+                .map(|i| 0.15 * ((i as f64) * 1.3 + 0.4).sin())
+                .collect();
+            let (rot_i, rot_f, vel_j, vel_f) = el.ed_motion(&c, &y);
+            let q = el.node_quantities::<f64>(&c, &y);
+            for g in 0..el.points.len() {
+                let p = el.point_inputs(g, &q);
+                let ps = el.point_kinematics(&c, g, &p[0], &p[1], &p[2]);
+                let jump = BeamElement::strain_jump(&c, &ps, &p);
+                let bi = el.strain_rate(g, &ps.rg_i, &ps.xp_i, &rot_i[..n], &vel_j[..n]);
+                let bf = el.strain_rate(g, &ps.rg_f, &ps.xp_f, &rot_f[..n], &vel_f[..n]);
+                let scale = bi.iter().chain(&bf).fold(0.0f64, |m, v| m.max(v.abs())) * c.h;
+                for k in 0..6 {
+                    let by_operator = (bi[k] - bf[k]) * c.h / 6.0;
+                    assert!(
+                        (jump[k] - by_operator).abs() <= 1e-13 * scale,
+                        "n={n} g={g} k={k}: {} vs {by_operator}",
+                        jump[k]
+                    );
                 }
             }
         }

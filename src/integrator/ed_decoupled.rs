@@ -48,7 +48,6 @@ pub struct DecoupledMatrix {
     /// Per pair: its two real unknowns and whether they are multipliers (`Layout::unpair`,
     /// `Layout::pair_is_multiplier`, looked up once).
     pairs: Vec<(usize, usize, bool)>,
-    rhs: Vec<c64>,
 }
 
 /// The coefficient with which real ED tangent entry (row `i`, column `j`) enters the complex
@@ -120,7 +119,6 @@ impl DecoupledMatrix {
             matrix: NewtonMatrix::from_pattern(np, c_ptr, c_rows),
             gather,
             pairs,
-            rhs: vec![c64::new(0.0, 0.0); np],
         }
     }
 
@@ -140,18 +138,21 @@ impl DecoupledMatrix {
     }
 
     /// Replaces the ED residual `res` by the update the complex factors give (see the module
-    /// notes; the exact Newton update for a linear system).
+    /// notes; the exact Newton update for a linear system). The pairs' mixing into the
+    /// complex right-hand side and out of its solution happen in the solve's permutations.
     pub fn solve(&mut self, res: &mut [f64]) {
-        for (g, &(a, b, multiplier)) in self.rhs.iter_mut().zip(&self.pairs) {
+        let pairs = &self.pairs;
+        let load = |res: &[f64], p: usize| {
+            let (a, b, multiplier) = pairs[p];
             let (first, second) = (res[a], res[b]);
-            *g = if multiplier {
+            if multiplier {
                 c64::new(0.5 * first, -(0.5 * first + 0.25 * second) / SQRT2)
             } else {
                 c64::new(0.25 * (first + second), -0.5 * second / SQRT2)
-            };
-        }
-        self.matrix.solve(&mut self.rhs);
-        for (z, &(a, b, multiplier)) in self.rhs.iter().zip(&self.pairs) {
+            }
+        };
+        let store = |res: &mut [f64], p: usize, z: c64| {
+            let (a, b, multiplier) = pairs[p];
             if multiplier {
                 res[a] = 2.0 * (2.0 * z.re + SQRT2 * z.im);
                 res[b] = 12.0 * SQRT2 * z.im;
@@ -159,7 +160,8 @@ impl DecoupledMatrix {
                 res[a] = 2.0 * z.re;
                 res[b] = -2.0 * SQRT2 * z.im;
             }
-        }
+        };
+        self.matrix.solve_mapped(res, load, store);
     }
 }
 

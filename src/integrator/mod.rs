@@ -1237,14 +1237,19 @@ impl Integrator {
         Ok(())
     }
 
-    /// Element history at the end of the converged step.
-    fn history_f(&self, sys: &System, ctx: &StepCtx) -> Vec<f64> {
+    /// Element history at the end of the converged step, and the beams' strain-jump part of
+    /// ED's numerical dissipation (0 under EP) from the same pass.
+    fn history_f(&self, sys: &System, ctx: &StepCtx) -> (Vec<f64>, f64) {
         let mut h = ctx.state.history.clone();
+        let mut local = Vec::new();
+        let mut strain_jumps = 0.0;
         for b in &sys.beams {
-            let local = b.gather(&self.y);
-            b.history_f(ctx, &local, &mut h[b.history..b.history + b.history_len()]);
+            local.clear();
+            local.extend(Kernel::unknowns(b).iter().map(|&g| self.y[g]));
+            let span = b.history..b.history + b.history_len();
+            strain_jumps += b.end_of_step(ctx, &local, &mut h[span]);
         }
-        h
+        (h, strain_jumps)
     }
 
     /// Builds the f-state from the converged unknowns and fills the step report.
@@ -1254,8 +1259,9 @@ impl Integrator {
         ctx: &StepCtx,
         mut report: StepReport,
     ) -> (State, StepReport) {
-        let state = self.end_state(sys, ctx);
-        self.account_energy(sys, ctx, &mut report);
+        let (history, strain_jumps) = self.history_f(sys, ctx);
+        let state = self.end_state(sys, ctx, history);
+        self.account_energy(sys, ctx, strain_jumps, &mut report);
         let y = &self.y;
         report.max_violation = sys
             .joints
@@ -1283,8 +1289,8 @@ impl Integrator {
 
     /// The state at the end of the converged step: positions, rotations, velocities from
     /// `Δ = h (V_start + V_f)/2` (V_start = V_i under EP, V_j under ED; zero velocities in
-    /// statics), coordinates, multipliers and element history.
-    fn end_state(&self, sys: &System, ctx: &StepCtx) -> State {
+    /// statics), coordinates, multipliers, and the element `history` ([`Self::history_f`]).
+    fn end_state(&self, sys: &System, ctx: &StepCtx, history: Vec<f64>) -> State {
         let layout = sys.layout;
         let ed = layout.ed();
         let (h, st, y) = (ctx.h, ctx.state, &self.y);
@@ -1338,14 +1344,21 @@ impl Integrator {
             lambda: (0..layout.n_rows)
                 .map(|r| ctx.s * y[layout.mult(r)])
                 .collect(),
-            history: self.history_f(sys, ctx),
+            history,
         }
     }
 
     /// The step's energy bookkeeping (ed-scheme-notes §3.4): `E_f − E_i = W_drive + W_ext +
     /// W_damp + W_friction − D` (W_damp: joint dampers and the beams' structural damping), and
-    /// the constraint forces' work (zero to round-off).
-    fn account_energy(&self, sys: &System, ctx: &StepCtx, report: &mut StepReport) {
+    /// the constraint forces' work (zero to round-off). `strain_jumps`: the beams' part of
+    /// ED's numerical dissipation ([`Self::history_f`]).
+    fn account_energy(
+        &self,
+        sys: &System,
+        ctx: &StepCtx,
+        strain_jumps: f64,
+        report: &mut StepReport,
+    ) {
         let layout = sys.layout;
         let (h, st, y) = (ctx.h, ctx.state, &self.y);
         report.drive_works = sys.drives.iter().map(|d| d.step_work(ctx, y)).collect();
@@ -1381,9 +1394,7 @@ impl Integrator {
             for sp in &sys.springs {
                 d[2] += sp.dissipation(ctx, y);
             }
-            for b in &sys.beams {
-                d[2] += b.jump_dissipation(ctx, &b.gather(y));
-            }
+            d[2] += strain_jumps;
             report.jump_energies = d;
             report.numerical_dissipation = d.iter().sum();
         }

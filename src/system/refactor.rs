@@ -210,33 +210,57 @@ impl<T: Scalar> StaticPivotLu<T> {
         true
     }
 
-    /// Solves `A x = rhs` in place. Complex systems (ED's decoupled one) run compiled for
-    /// AVX2 where the processor has it: complex products take half the instructions with
-    /// its shuffles than with the x86-64 baseline's (−25 % per solve).
+    /// Solves `A x = rhs` in place.
     pub fn solve(&mut self, rhs: &mut [T]) {
+        self.solve_mapped(rhs, |r, i| r[i], |r, i, x| r[i] = x);
+    }
+
+    /// Solves `A x = b` with `b_i = load(data, i)`, handing each `x_i` to
+    /// `store(data, i, x_i)` once every `b_i` is read: a caller whose right-hand side and
+    /// solution are mixtures of other quantities (ED's decoupled system) forms and unmixes
+    /// them in the permutations' passes, not in passes of its own.
+    #[inline]
+    pub fn solve_mapped<D: ?Sized>(
+        &mut self,
+        data: &mut D,
+        load: impl Fn(&D, usize) -> T,
+        mut store: impl FnMut(&mut D, usize, T),
+    ) {
+        for (yk, &r) in self.work.iter_mut().zip(&self.row_perm) {
+            *yk = load(data, r);
+        }
+        self.substitute();
+        // The work vector is left zero (`refactor` scatters into it).
+        for (yk, &c) in self.work.iter_mut().zip(&self.col_perm) {
+            store(data, c, std::mem::take(yk));
+        }
+    }
+
+    /// The forward and back substitutions on the work vector (the permuted right-hand side).
+    /// Complex systems (ED's decoupled one) run compiled for AVX2 where the processor has it:
+    /// complex products take half the instructions with its shuffles than with the x86-64
+    /// baseline's (−25 % per solve).
+    fn substitute(&mut self) {
         #[cfg(target_arch = "x86_64")]
         if self.wide() {
             // SAFETY: the processor has AVX2 (`wide`).
-            return unsafe { self.solve_avx2(rhs) };
+            return unsafe { self.substitute_avx2() };
         }
-        self.solve_portable(rhs);
+        self.substitute_portable();
     }
 
-    /// [`Self::solve`] compiled for AVX2.
+    /// [`Self::substitute`] compiled for AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn solve_avx2(&mut self, rhs: &mut [T]) {
-        self.solve_portable(rhs);
+    unsafe fn substitute_avx2(&mut self) {
+        self.substitute_portable();
     }
 
-    // Inlined only into `solve` and `solve_avx2`: inlined into other callers its loops
-    // compiled ~15 % longer.
+    // Inlined only into `substitute` and `substitute_avx2`: inlined into other callers its
+    // loops compiled ~15 % longer.
     #[inline(always)]
-    fn solve_portable(&mut self, rhs: &mut [T]) {
+    fn substitute_portable(&mut self) {
         let y = &mut self.work;
-        for (yk, &r) in y.iter_mut().zip(&self.row_perm) {
-            *yk = rhs[r];
-        }
         for k in 0..self.n {
             let yk = y[k];
             let col = self.l.ptr[k]..self.l.ptr[k + 1];
@@ -253,10 +277,6 @@ impl<T: Scalar> StaticPivotLu<T> {
                 // SAFETY: as above.
                 unsafe { *y.get_unchecked_mut(j) -= u * yk };
             }
-        }
-        for (yk, &c) in y.iter_mut().zip(&self.col_perm) {
-            rhs[c] = *yk;
-            *yk = T::default();
         }
     }
 }

@@ -206,6 +206,17 @@ impl<T: Entry> NewtonMatrix<T> {
     pub fn solve(&mut self, rhs: &mut [T]) {
         self.factors.solve(rhs);
     }
+
+    /// [`Self::solve`] with the right-hand side read from and the solution written to
+    /// `data` by the caller's maps (see [`StaticPivotLu::solve_mapped`]).
+    pub fn solve_mapped<D: ?Sized>(
+        &mut self,
+        data: &mut D,
+        load: impl Fn(&D, usize) -> T,
+        store: impl FnMut(&mut D, usize, T),
+    ) {
+        self.factors.solve_mapped(data, load, store);
+    }
 }
 
 impl NewtonMatrix<f64> {
