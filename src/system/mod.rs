@@ -5,6 +5,7 @@
 pub mod redundancy;
 pub mod refactor;
 pub mod sparse;
+mod substitution;
 mod time_functions;
 
 use crate::beam::element::BeamElement;

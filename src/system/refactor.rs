@@ -8,10 +8,11 @@
 //! Factor space: factor column `k` is column `col_perm[k]` of A, factor row `k` is row
 //! `row_perm[k]` of A; `P A Q = L U` with L unit lower and U upper triangular.
 
+use super::substitution;
 use faer::c64;
 use faer::sparse::linalg::lu::simplicial::SimplicialLu;
 use faer::sparse::SparseColMatRef;
-use std::ops::{Div, Mul, SubAssign};
+use std::ops::{Add, AddAssign, Div, Mul, Sub, SubAssign};
 
 /// A pivot is kept while its magnitude is at least this fraction of the largest candidate in
 /// its column (threshold partial pivoting; 0.1 is UMFPACK's and MA48's default: element
@@ -19,15 +20,39 @@ use std::ops::{Div, Mul, SubAssign};
 pub const PIVOT_THRESHOLD: f64 = 0.1;
 
 /// The scalar arithmetic a refactorization needs (`f64` and `c64`).
-pub trait Scalar: Copy + Default + Mul<Output = Self> + Div<Output = Self> + SubAssign {
+pub trait Scalar:
+    Copy
+    + Default
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + AddAssign
+    + SubAssign
+{
     /// A magnitude for pivot comparisons (the 1-norm for complex numbers: within √2 of the
     /// modulus, and without a square root).
     fn magnitude(self) -> f64;
     /// The multiplicative identity.
     fn one() -> Self;
-    /// Whether wider vector instructions pay for this type's kernels (see
-    /// [`StaticPivotLu::solve`]).
-    const WIDE_PAYS: bool;
+
+    /// [`substitution::dot`], where the caller runs compiled for AVX2.
+    ///
+    /// # Safety
+    /// The processor has AVX2.
+    #[inline(always)]
+    unsafe fn dot_avx2(a: &[Self], b: &[Self]) -> Self {
+        substitution::dot(a, b)
+    }
+
+    /// [`substitution::sub_scaled`], where the caller runs compiled for AVX2.
+    ///
+    /// # Safety
+    /// The processor has AVX2.
+    #[inline(always)]
+    unsafe fn sub_scaled_avx2(y: &mut [Self], u: &[Self], s: Self) {
+        substitution::sub_scaled(y, u, s)
+    }
 }
 
 impl Scalar for f64 {
@@ -37,7 +62,6 @@ impl Scalar for f64 {
     fn one() -> Self {
         1.0
     }
-    const WIDE_PAYS: bool = false;
 }
 
 impl Scalar for c64 {
@@ -47,7 +71,20 @@ impl Scalar for c64 {
     fn one() -> Self {
         c64::new(1.0, 0.0)
     }
-    const WIDE_PAYS: bool = true;
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn dot_avx2(a: &[Self], b: &[Self]) -> Self {
+        // SAFETY: the caller's.
+        unsafe { substitution::dot_c64_avx2(a, b) }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn sub_scaled_avx2(y: &mut [Self], u: &[Self], s: Self) {
+        // SAFETY: the caller's.
+        unsafe { substitution::sub_scaled_c64_avx2(y, u, s) }
+    }
 }
 
 /// L and U with fixed patterns and pivots; every buffer is reused across refactorizations
@@ -67,6 +104,12 @@ pub struct StaticPivotLu<T> {
     u: Triangle<T>,
     /// Reciprocals of U's diagonal (the pivots): one division per column, not per entry.
     u_inv: Vec<T>,
+    /// U's columns as runs of consecutive rows (the back substitution's axpys).
+    u_runs: Runs,
+    /// L by rows, as runs of consecutive columns (the forward substitution's dot products):
+    /// L's columns are short runs (row pivoting scatters them; 2.9 entries on the beam
+    /// pendulum), its rows long ones (14).
+    l_rows: RowCopy<T>,
     row_perm: Vec<usize>,
     col_perm: Vec<usize>,
     /// Dense column / right-hand side in factor space; all zero between refactorizations.
@@ -116,6 +159,8 @@ impl<T: Scalar> StaticPivotLu<T> {
         self.u
             .take_strict(lu.u_factor_unsorted(), |k, v| inv[k] = T::one() / v);
         self.u.sort_columns(&mut self.sort_scratch);
+        self.u_runs.index(&self.u.ptr, &self.u.row);
+        self.l_rows.rebuild(n, &self.l);
 
         // The refactorization and the solves index the work vector by these unchecked.
         let rows = self.a_row.iter().chain(&self.l.row).chain(&self.u.row);
@@ -123,6 +168,14 @@ impl<T: Scalar> StaticPivotLu<T> {
             rows.into_iter().all(|&r| r < n),
             "LU factor rows within 0..n"
         );
+    }
+
+    /// Lines of the substitutions (rows of L, columns of U) whose entries are not one run
+    /// of consecutive indices (tests: the run structure is exercised).
+    #[cfg(test)]
+    pub fn gapped_lines(&self) -> usize {
+        let gapped = |r: &Runs| (0..r.ptr.len() - 1).filter(|&k| r.of(k).len() > 1).count();
+        gapped(&self.l_rows.runs) + gapped(&self.u_runs)
     }
 
     /// Entries of L and U, diagonals included.
@@ -146,7 +199,7 @@ impl<T: Scalar> StaticPivotLu<T> {
     /// that have it (detection is cached by the standard library).
     #[cfg(target_arch = "x86_64")]
     fn wide(&self) -> bool {
-        T::WIDE_PAYS && !self.portable_only && std::is_x86_feature_detected!("avx2")
+        !self.portable_only && std::is_x86_feature_detected!("avx2")
     }
 
     /// Runs the baseline kernels only (`true`), or the widest that pay (the default).
@@ -169,6 +222,7 @@ impl<T: Scalar> StaticPivotLu<T> {
                 return false;
             }
         }
+        self.l_rows.gather(&self.l.val);
         true
     }
 
@@ -236,47 +290,145 @@ impl<T: Scalar> StaticPivotLu<T> {
         }
     }
 
-    /// The forward and back substitutions on the work vector (the permuted right-hand side).
-    /// Complex systems (ED's decoupled one) run compiled for AVX2 where the processor has it:
-    /// complex products take half the instructions with its shuffles than with the x86-64
-    /// baseline's (−25 % per solve).
+    /// The forward and back substitutions on the work vector (the permuted right-hand side),
+    /// compiled for AVX2 where the processor has it: their inner loops run over contiguous
+    /// slices ([`Runs`]), which wider vectors carry (−15 % per real solve; complex products
+    /// by explicit instructions, see [`substitution`]).
     fn substitute(&mut self) {
         #[cfg(target_arch = "x86_64")]
         if self.wide() {
             // SAFETY: the processor has AVX2 (`wide`).
             return unsafe { self.substitute_avx2() };
         }
-        self.substitute_portable();
+        self.substitute_with::<false>();
     }
 
     /// [`Self::substitute`] compiled for AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn substitute_avx2(&mut self) {
-        self.substitute_portable();
+        self.substitute_with::<true>();
     }
 
-    // Inlined only into `substitute` and `substitute_avx2`: inlined into other callers its
-    // loops compiled ~15 % longer.
+    /// The substitutions, with the kernels for AVX2 if `AVX2` (only from
+    /// [`Self::substitute_avx2`]). Inlined only into `substitute` and `substitute_avx2`:
+    /// inlined into other callers its loops compiled ~15 % longer.
     #[inline(always)]
-    fn substitute_portable(&mut self) {
+    fn substitute_with<const AVX2: bool>(&mut self) {
         let y = &mut self.work;
-        for k in 0..self.n {
-            let yk = y[k];
-            let col = self.l.ptr[k]..self.l.ptr[k + 1];
-            for (&i, &l) in self.l.row[col.clone()].iter().zip(&self.l.val[col]) {
-                // SAFETY: factor rows are below n = y.len() (checked in `rebuild`).
-                unsafe { *y.get_unchecked_mut(i) -= l * yk };
+        let l = &self.l_rows;
+        for i in 0..self.n {
+            let mut s = y[i];
+            let mut p = l.ptr[i];
+            for &(first, len) in l.runs.of(i) {
+                let (a, b) = (&l.val[p..p + len], &y[first..first + len]);
+                // SAFETY: AVX2 only from `substitute_avx2`, run where the processor has it.
+                s -= if AVX2 {
+                    unsafe { T::dot_avx2(a, b) }
+                } else {
+                    substitution::dot(a, b)
+                };
+                p += len;
             }
+            y[i] = s;
         }
         for k in (0..self.n).rev() {
             let yk = y[k] * self.u_inv[k];
             y[k] = yk;
-            let col = self.u.ptr[k]..self.u.ptr[k + 1];
-            for (&j, &u) in self.u.row[col.clone()].iter().zip(&self.u.val[col]) {
-                // SAFETY: as above.
-                unsafe { *y.get_unchecked_mut(j) -= u * yk };
+            let mut p = self.u.ptr[k];
+            for &(first, len) in self.u_runs.of(k) {
+                let (y, u) = (&mut y[first..first + len], &self.u.val[p..p + len]);
+                if AVX2 {
+                    // SAFETY: as above.
+                    unsafe { T::sub_scaled_avx2(y, u, yk) };
+                } else {
+                    substitution::sub_scaled(y, u, yk);
+                }
+                p += len;
             }
+        }
+    }
+}
+
+/// Where the entries of a compressed triangle's lines (columns or rows) lie as runs of
+/// consecutive indices: the substitutions' inner loops then run over contiguous slices, no
+/// index per entry.
+#[derive(Default)]
+struct Runs {
+    ptr: Vec<usize>,
+    /// `(first index, length)`.
+    runs: Vec<(usize, usize)>,
+}
+
+impl Runs {
+    /// From the lines' indices `idx[ptr[k]..ptr[k + 1]]`, ascending in each line.
+    fn index(&mut self, ptr: &[usize], idx: &[usize]) {
+        self.ptr.clear();
+        self.runs.clear();
+        self.ptr.push(0);
+        for k in 0..ptr.len() - 1 {
+            for (q, &i) in idx[ptr[k]..ptr[k + 1]].iter().enumerate() {
+                match self.runs.last_mut() {
+                    Some((first, len)) if q > 0 && *first + *len == i => *len += 1,
+                    _ => self.runs.push((i, 1)),
+                }
+            }
+            self.ptr.push(self.runs.len());
+        }
+    }
+
+    /// Line `k`'s runs.
+    fn of(&self, k: usize) -> &[(usize, usize)] {
+        &self.runs[self.ptr[k]..self.ptr[k + 1]]
+    }
+}
+
+/// A strict lower triangle's copy by rows, columns ascending, refreshed from its column
+/// storage after every refactorization.
+#[derive(Default)]
+struct RowCopy<T> {
+    ptr: Vec<usize>,
+    /// Where each entry's value is in the column storage.
+    source: Vec<usize>,
+    runs: Runs,
+    val: Vec<T>,
+}
+
+impl<T: Scalar> RowCopy<T> {
+    /// The pattern of `by_columns` (an `n × n` triangle) by rows, with its values.
+    fn rebuild(&mut self, n: usize, by_columns: &Triangle<T>) {
+        let mut count = vec![0usize; n + 1];
+        for &r in &by_columns.row {
+            count[r + 1] += 1;
+        }
+        for r in 0..n {
+            count[r + 1] += count[r];
+        }
+        self.ptr.clear();
+        self.ptr.extend_from_slice(&count);
+        let mut next = count;
+        let mut column = vec![0usize; by_columns.row.len()];
+        self.source.clear();
+        self.source.resize(by_columns.row.len(), 0);
+        // Columns in ascending order: each row's columns come out ascending.
+        for k in 0..by_columns.ptr.len() - 1 {
+            for p in by_columns.ptr[k]..by_columns.ptr[k + 1] {
+                let r = by_columns.row[p];
+                column[next[r]] = k;
+                self.source[next[r]] = p;
+                next[r] += 1;
+            }
+        }
+        self.runs.index(&self.ptr, &column);
+        self.val.clear();
+        self.val.resize(by_columns.row.len(), T::default());
+        self.gather(&by_columns.val);
+    }
+
+    /// The values from the column storage's.
+    fn gather(&mut self, by_columns: &[T]) {
+        for (v, &p) in self.val.iter_mut().zip(&self.source) {
+            *v = by_columns[p];
         }
     }
 }

@@ -1,0 +1,129 @@
+//! The dense kernels of the sparse triangular solves ([`super::refactor::StaticPivotLu`]):
+//! L's rows and U's columns are runs of consecutive indices, so the forward substitution is
+//! dot products and the back substitution `y −= u s` over contiguous slices.
+//!
+//! The AVX2 versions for complex numbers are written out: the compiler's own vectorization
+//! of a complex product shuffles real and imaginary parts apart and back (six shuffles per
+//! two products). Either version performs the same IEEE operations in the same order (a
+//! complex product `(a_r b_r − a_i b_i, a_r b_i + a_i b_r)`, no fused multiply-adds, the dot
+//! products' four partial sums), so their results agree bit for bit.
+
+use super::refactor::Scalar;
+use faer::c64;
+
+/// `Σ a_i b_i` in four interleaved partial sums: independent additions the processor
+/// overlaps (and vector instructions carry), in an order that does not depend on them.
+#[inline(always)]
+pub(super) fn dot<T: Scalar>(a: &[T], b: &[T]) -> T {
+    let mut acc = [T::default(); 4];
+    let (a4, b4) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ar, br) = (a4.remainder(), b4.remainder());
+    for (x, y) in a4.zip(b4) {
+        for j in 0..4 {
+            acc[j] += x[j] * y[j];
+        }
+    }
+    for (x, y) in ar.iter().zip(br) {
+        acc[0] += *x * *y;
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3])
+}
+
+/// `y_i −= u_i s`.
+#[inline(always)]
+pub(super) fn sub_scaled<T: Scalar>(y: &mut [T], u: &[T], s: T) {
+    for (yi, &ui) in y.iter_mut().zip(u) {
+        *yi -= ui * s;
+    }
+}
+
+/// [`dot`] for complex numbers with AVX2: two products per instruction.
+///
+/// # Safety
+/// The processor has AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(super) unsafe fn dot_c64_avx2(a: &[c64], b: &[c64]) -> c64 {
+    use std::arch::x86_64::*;
+    let n = a.len().min(b.len());
+    let (ap, bp) = (a.as_ptr().cast::<f64>(), b.as_ptr().cast::<f64>());
+    // Partial sums 0 and 1 in `lo`, 2 and 3 in `hi`, as in `dot`.
+    let (mut lo, mut hi) = (_mm256_setzero_pd(), _mm256_setzero_pd());
+    let mut j = 0;
+    while j + 4 <= n {
+        // SAFETY: entries j..j + 4 of both slices, two f64 each (c64 is `repr(C)`).
+        unsafe {
+            lo = _mm256_add_pd(lo, mul_c64x2(ap.add(2 * j), bp.add(2 * j)));
+            hi = _mm256_add_pd(hi, mul_c64x2(ap.add(2 * j + 4), bp.add(2 * j + 4)));
+        }
+        j += 4;
+    }
+    let mut acc = [c64::new(0.0, 0.0); 4];
+    // SAFETY: four c64 are eight f64.
+    unsafe {
+        _mm256_storeu_pd(acc.as_mut_ptr().cast::<f64>(), lo);
+        _mm256_storeu_pd(acc.as_mut_ptr().cast::<f64>().add(4), hi);
+    }
+    for (x, y) in a[j..n].iter().zip(&b[j..n]) {
+        acc[0] += *x * *y;
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3])
+}
+
+/// [`sub_scaled`] for complex numbers with AVX2: two entries per instruction.
+///
+/// # Safety
+/// The processor has AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(super) unsafe fn sub_scaled_c64_avx2(y: &mut [c64], u: &[c64], s: c64) {
+    use std::arch::x86_64::*;
+    let n = y.len().min(u.len());
+    let (yp, up) = (y.as_mut_ptr().cast::<f64>(), u.as_ptr().cast::<f64>());
+    let (s_re, s_im) = (_mm256_set1_pd(s.re), _mm256_set1_pd(s.im));
+    let mut j = 0;
+    while j + 2 <= n {
+        // SAFETY: entries j, j + 1 of both slices (four f64).
+        unsafe {
+            let uv = _mm256_loadu_pd(up.add(2 * j));
+            let p = times(uv, s_re, s_im);
+            _mm256_storeu_pd(
+                yp.add(2 * j),
+                _mm256_sub_pd(_mm256_loadu_pd(yp.add(2 * j)), p),
+            );
+        }
+        j += 2;
+    }
+    if j < n {
+        y[j] -= u[j] * s;
+    }
+}
+
+/// Two complex products `a b` from `a` and `b` at the pointers (four f64 each).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn mul_c64x2(a: *const f64, b: *const f64) -> std::arch::x86_64::__m256d {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller's pointers hold four f64 each.
+    let (av, bv) = unsafe { (_mm256_loadu_pd(a), _mm256_loadu_pd(b)) };
+    // (b_r, b_r) and (b_i, b_i) per entry.
+    times(av, _mm256_movedup_pd(bv), _mm256_permute_pd(bv, 0b1111))
+}
+
+/// `a b` per complex entry of `a`, with `b`'s real and imaginary parts spread over both
+/// halves of each entry: `(a_r b_r − a_i b_i, a_i b_r + a_r b_i)`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn times(
+    a: std::arch::x86_64::__m256d,
+    b_re: std::arch::x86_64::__m256d,
+    b_im: std::arch::x86_64::__m256d,
+) -> std::arch::x86_64::__m256d {
+    use std::arch::x86_64::*;
+    let swapped = _mm256_permute_pd(a, 0b0101);
+    _mm256_addsub_pd(_mm256_mul_pd(a, b_re), _mm256_mul_pd(swapped, b_im))
+}
