@@ -172,8 +172,10 @@ fn chained<
     let mut u = [[V3::<f64>::zero(); U_GROUPS]; MAX_NODES];
     // G[a][b][k][qg]: ∂u^a_active[k]/∂q^b accumulated over the points.
     let mut gab = [[[[B3::zero(); NQ]; NU]; MAX_NODES]; MAX_NODES];
+    // Every point writes all of it.
+    let mut jac = [[B3::zero(); NP]; NO];
     for g in 0..el.points.len() {
-        let (o, jac) = point_jacobian::<N, NO, NP>(el, ctx, g, &q);
+        let o = point_jacobian::<N, NO, NP>(el, ctx, g, &q, &mut jac);
         el.add_row_quantities(g, &o, &mut u);
         let pt = &el.points[g];
         for a in 0..nn {
@@ -224,24 +226,25 @@ fn row_weights<const NU: usize, const NO: usize, const NP: usize>(
     w
 }
 
-/// Point outputs and their Jacobian `∂o/∂p` in 3×3 blocks `[output group][input group]`,
-/// the first `NO` outputs and `NP` inputs (the others are zero in the mode): in closed form
-/// for a time step ([`closed_point_jacobian`]), by one dual pass in statics.
+/// Point outputs, and their Jacobian `∂o/∂p` into `jac` in 3×3 blocks `[output group][input
+/// group]`, the first `NO` outputs and `NP` inputs (the others are zero in the mode): in
+/// closed form for a time step ([`closed_point_jacobian`]), by one dual pass in statics.
 fn point_jacobian<const N: usize, const NO: usize, const NP: usize>(
     el: &BeamElement,
     ctx: &StepCtx,
     g: usize,
     q: &[[V3<f64>; Q_GROUPS]; MAX_NODES],
-) -> ([V3<f64>; O_GROUPS], [[B3; NP]; NO]) {
+    jac: &mut [[B3; NP]; NO],
+) -> [V3<f64>; O_GROUPS] {
     let p = el.point_inputs(g, q);
     if ctx.is_static() {
         let (o, full) = dual_point_jacobian::<N>(el, ctx, g, &p);
-        return (
-            o,
-            std::array::from_fn(|og| std::array::from_fn(|pg| full[og][pg])),
-        );
+        for (row, full_row) in jac.iter_mut().zip(&full) {
+            row.copy_from_slice(&full_row[..NP]);
+        }
+        return o;
     }
-    closed_point_jacobian::<NO, NP>(el, ctx, g, &p)
+    closed_point_jacobian::<NO, NP>(el, ctx, g, &p, jac)
 }
 
 /// [`point_jacobian`] of a time step from [`closed_point_derivatives`]: EP's `NO = NP = 3`
@@ -251,22 +254,16 @@ fn closed_point_jacobian<const NO: usize, const NP: usize>(
     ctx: &StepCtx,
     g: usize,
     p: &[V3<f64>; P_GROUPS],
-) -> ([V3<f64>; O_GROUPS], [[B3; NP]; NO]) {
+    jac: &mut [[B3; NP]; NO],
+) -> [V3<f64>; O_GROUPS] {
     if !ctx.ed() {
-        let (o, closed) = closed_point_derivatives::<3, NO>(el, ctx, g, p);
-        let jac = std::array::from_fn(|og| {
-            std::array::from_fn(|pg| if pg < 3 { closed[og][pg] } else { B3::zero() })
-        });
-        return (o, jac);
+        return closed_point_derivatives::<3, NO, NP>(el, ctx, g, p, jac);
     }
-    let (o, closed) = closed_point_derivatives::<CLOSED_DIRS, NO>(el, ctx, g, p);
-    let mut jac = [[B3::zero(); NP]; NO];
-    for (row, c) in jac.iter_mut().zip(&closed) {
-        row[..3].copy_from_slice(&c[..3]);
-    }
-    let d_j: [[B3; 2]; NO] = std::array::from_fn(|og| [closed[og][3], closed[og][4]]);
-    velocity_columns(el, ctx, g, p, &d_j, &mut jac);
-    (o, jac)
+    let o = closed_point_derivatives::<CLOSED_DIRS, NO, NP>(el, ctx, g, p, jac);
+    // Columns 3 and 4 hold ∂o/∂ε_j until the velocity inputs' columns replace them.
+    let d_j: [[B3; 2]; NO] = std::array::from_fn(|og| [jac[og][3], jac[og][4]]);
+    velocity_columns(el, ctx, g, p, &d_j, jac);
+    o
 }
 
 /// `∂(H(ρ) z)/∂ρ` for a fixed `z`, with `H = I − ρρᵀ/(4 + ρᵀρ)`:
@@ -333,20 +330,23 @@ fn strain_derivatives<const ND: usize>(
 ///   `δo₇ = −x̃′_f δo₆ + õ₆ δΔx′`, `δo₈ = w R_f δn_M − õ₈ a`, and at i the same without the
 ///   triad's variation.
 ///
-/// Returns the outputs, `∂o/∂p` for the geometric inputs and `∂o/∂ε_j` by strain half, of
-/// the first `NO` outputs (EP: 3, the others being zero).
-fn closed_point_derivatives<const ND: usize, const NO: usize>(
+/// Returns the outputs, and writes into `jac`'s first `ND` columns `∂o/∂p` for the geometric
+/// inputs and `∂o/∂ε_j` by strain half, of the first `NO` outputs (EP: 3, the others being
+/// zero).
+fn closed_point_derivatives<const ND: usize, const NO: usize, const NP: usize>(
     el: &BeamElement,
     ctx: &StepCtx,
     g: usize,
     p: &[V3<f64>; P_GROUPS],
-) -> ([V3<f64>; O_GROUPS], [[B3; ND]; NO]) {
+    jac: &mut [[B3; NP]; NO],
+) -> [V3<f64>; O_GROUPS] {
     let (ed, pt) = (ctx.ed(), &el.points[g]);
     assert_eq!(
         (ND, NO),
         if ed { (CLOSED_DIRS, O_GROUPS) } else { (3, 3) },
         "directions and outputs of the mode"
     );
+    assert!(ND <= NP, "the Jacobian holds the directions");
     let (c, w) = (&pt.stiffness, pt.weight);
     let (rho, rho_p) = (&p[1], &p[2]);
     let ps = el.point_kinematics(ctx, g, &p[0], rho, rho_p);
@@ -369,7 +369,6 @@ fn closed_point_derivatives<const ND: usize, const NO: usize>(
     let (n_f, n_m) = mean_forces(el, ctx, g, &ps, &eps_j);
     let xm_t = (ps.xp_i + ps.xp_f).scale_f(0.5).tilde();
     let hrm = ps.hm.mul_m(&ps.rm);
-    let mut jac = [[B3::zero(); ND]; NO];
     for k in 0..ND {
         jac[0][k] = ps.rm.mul_m(&mean_force(0, k));
         jac[2][k] = hrm.mul_m(&mean_force(1, k));
@@ -402,7 +401,7 @@ fn closed_point_derivatives<const ND: usize, const NO: usize>(
         }
         jac[7][0] = jac[7][0] + o[6].tilde();
     }
-    (o, jac)
+    o
 }
 
 /// `a` times a 6×6 matrix, as 3×3 blocks `[[11, 12], [21, 22]]`.
@@ -691,10 +690,12 @@ mod tests {
                     // EP's closed form has D's outputs over the geometric inputs: the dual
                     // pass's other blocks must be zero.
                     let (o, jac): (_, Vec<Vec<B3>>) = if scheme == Scheme::Ed {
-                        let (o, j) = closed_point_jacobian::<O_GROUPS, P_GROUPS>(&el, &c, g, &p);
+                        let mut j = [[B3::zero(); P_GROUPS]; O_GROUPS];
+                        let o = closed_point_jacobian(&el, &c, g, &p, &mut j);
                         (o, j.iter().map(|r| r.to_vec()).collect())
                     } else {
-                        let (o, j) = closed_point_jacobian::<3, 3>(&el, &c, g, &p);
+                        let mut j = [[B3::zero(); 3]; 3];
+                        let o = closed_point_jacobian(&el, &c, g, &p, &mut j);
                         (o, j.iter().map(|r| r.to_vec()).collect())
                     };
                     for (a, b) in o.iter().zip(&od) {
