@@ -35,47 +35,85 @@
 //! size costs ~⅓ of the real LU of ED's size and a solve about half (12-element beam
 //! pendulum: complex 225-unknown solve 6.4 µs against the real 450-unknown 13.7 µs).
 
+use super::positions::KernelPositions;
 use crate::math::layout::Layout;
 use crate::system::sparse::NewtonMatrix;
 use faer::c64;
 
 const SQRT2: f64 = std::f64::consts::SQRT_2;
 
+/// Where a real ED tangent entry goes in the complex matrix's values (seen as `f64`s:
+/// real, imaginary, real, …).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Part {
+    /// Coefficient 1: the real part.
+    Real,
+    /// Coefficient `−i√2/2` (`J_jΔ`): summed into the imaginary part, scaled when formed.
+    Imaginary,
+    /// `(2 − i√2) α`: a row pair's own multipliers' α, in the real part until formed.
+    OwnMultipliers,
+}
+
+/// The decoupled system and the kernels' block positions in its values: under modified
+/// Newton the kernels assemble ED's tangent rows straight into the complex matrix (the
+/// entries it does not read go to a discard slot), not into the real ED matrix that would
+/// then be cleared, gathered from and cleared again.
+pub struct DecoupledSystem {
+    pub matrix: DecoupledMatrix,
+    pub pos: KernelPositions,
+}
+
+impl DecoupledSystem {
+    /// For the real ED tangent `real` whose kernel blocks are at `real_pos`.
+    pub fn new(layout: Layout, real: &NewtonMatrix, real_pos: &KernelPositions) -> Self {
+        let (col_ptr, row_idx) = real.pattern();
+        let matrix = DecoupledMatrix::new(layout, col_ptr, row_idx);
+        let pos = real_pos.map(|p| matrix.slots[p]);
+        DecoupledSystem { matrix, pos }
+    }
+}
+
 pub struct DecoupledMatrix {
     matrix: NewtonMatrix<c64>,
-    /// `(position in the complex matrix, position in the real ED tangent, coefficient)`.
-    gather: Vec<(usize, usize, c64)>,
+    /// Per position of the real ED tangent (its trailing out-of-pattern slot included): the
+    /// `f64` slot of the complex values it adds into — [`Self::discard`] for the entries the
+    /// complex system does not read, [`Self::outside`] for the real pattern's own dump.
+    slots: Vec<usize>,
+    /// Complex positions of the row pairs' own multipliers' diagonals ([`Part::OwnMultipliers`]).
+    own_multipliers: Vec<usize>,
+    /// Whether the values assembled were turned into the complex matrix.
+    formed: bool,
     /// Per pair: its two real unknowns and whether they are multipliers (`Layout::unpair`,
     /// `Layout::pair_is_multiplier`, looked up once).
     pairs: Vec<(usize, usize, bool)>,
 }
 
-/// The coefficient with which real ED tangent entry (row `i`, column `j`) enters the complex
-/// matrix, or None if it does not.
-fn coefficient(layout: &Layout, i: usize, j: usize) -> Option<(usize, usize, c64)> {
+/// The complex entry (row pair, column pair) that real ED tangent entry (row `i`, column
+/// `j`) enters, and how; None if it does not.
+fn coefficient(layout: &Layout, i: usize, j: usize) -> Option<(usize, usize, Part)> {
     let (pi, i_second) = layout.pair(i);
     let (pj, j_second) = layout.pair(j);
     let row_mult = layout.pair_is_multiplier(pi);
     let col_mult = layout.pair_is_multiplier(pj);
-    let coef = match (row_mult, col_mult, i_second, j_second) {
+    let part = match (row_mult, col_mult, i_second, j_second) {
         // Motion rows, motion columns: J_jX − i(√2/2) J_jΔ.
-        (false, false, true, true) => c64::new(1.0, 0.0),
-        (false, false, true, false) => c64::new(0.0, -0.5 * SQRT2),
+        (false, false, true, true) => Part::Real,
+        (false, false, true, false) => Part::Imaginary,
         // A row pair that sets its own multipliers — `[[α, 0], [0, −α]]` on (λ, λ_d), a
         // slipping friction's force — is `(2 − i√2) α` in the complex system; read from its
         // C-row (the Cj-row's −α is implied).
-        (true, true, false, false) if pi == pj => c64::new(2.0, -SQRT2),
+        (true, true, false, false) if pi == pj => Part::OwnMultipliers,
         (true, true, _, _) => return None,
         // The f-rows' λ columns (sBᵀ) and the C rows' Δ columns (sB).
-        (false, true, false, false) | (true, _, false, false) => c64::new(1.0, 0.0),
+        (false, true, false, false) | (true, _, false, false) => Part::Real,
         _ => return None,
     };
-    Some((pi, pj, coef))
+    Some((pi, pj, part))
 }
 
 impl DecoupledMatrix {
-    /// The complex matrix's pattern and gather list from the real ED tangent's pattern
-    /// (rows sorted in each column).
+    /// The complex matrix's pattern and each real entry's slot in it, from the real ED
+    /// tangent's pattern (rows sorted in each column).
     pub fn new(layout: Layout, col_ptr: &[usize], row_idx: &[usize]) -> Self {
         let np = layout.n_pairs();
         let mut cols: Vec<Vec<usize>> = (0..np).map(|p| vec![p]).collect();
@@ -87,9 +125,9 @@ impl DecoupledMatrix {
                 .take(col_ptr[j + 1])
                 .skip(col_ptr[j])
             {
-                if let Some((pi, pj, coef)) = coefficient(&layout, i, j) {
+                if let Some((pi, pj, part)) = coefficient(&layout, i, j) {
                     cols[pj].push(pi);
-                    sources.push((pi, pj, p, coef));
+                    sources.push((pi, pj, p, part));
                 }
             }
         }
@@ -101,14 +139,21 @@ impl DecoupledMatrix {
             c_rows.extend_from_slice(c);
             c_ptr.push(c_rows.len());
         }
-        let gather = sources
-            .into_iter()
-            .map(|(pi, pj, p, coef)| {
-                let col = &c_rows[c_ptr[pj]..c_ptr[pj + 1]];
-                let at = c_ptr[pj] + col.binary_search(&pi).expect("entry in pattern");
-                (at, p, coef)
-            })
-            .collect();
+        let nnz = c_rows.len();
+        let real_nnz = row_idx.len();
+        // The trailing complex slot, which the factorization never reads: its real part
+        // discards, its imaginary part receives what falls outside the real pattern.
+        let mut slots = vec![2 * nnz; real_nnz + 1];
+        slots[real_nnz] = 2 * nnz + 1;
+        let mut own_multipliers = Vec::new();
+        for (pi, pj, p, part) in sources {
+            let col = &c_rows[c_ptr[pj]..c_ptr[pj + 1]];
+            let at = c_ptr[pj] + col.binary_search(&pi).expect("entry in pattern");
+            slots[p] = 2 * at + (part == Part::Imaginary) as usize;
+            if part == Part::OwnMultipliers {
+                own_multipliers.push(at);
+            }
+        }
         let pairs = (0..np)
             .map(|p| {
                 let (a, b) = layout.unpair(p);
@@ -117,7 +162,9 @@ impl DecoupledMatrix {
             .collect();
         DecoupledMatrix {
             matrix: NewtonMatrix::from_pattern(np, c_ptr, c_rows),
-            gather,
+            slots,
+            own_multipliers,
+            formed: false,
             pairs,
         }
     }
@@ -127,14 +174,55 @@ impl DecoupledMatrix {
         self.matrix.numeric_factorizations - self.matrix.refactorizations
     }
 
-    /// Forms the complex matrix from the assembled real ED tangent `values` and factors it.
-    pub fn factor(&mut self, values: &[f64]) -> Result<(), String> {
+    /// The values cleared for the kernels to add ED's tangent entries into, at their
+    /// [`DecoupledSystem::pos`] (as `f64`s; see [`Part`]).
+    pub fn start_assembly(&mut self) -> &mut [f64] {
         self.matrix.clear();
-        let m = &mut self.matrix.values;
-        for &(at, p, coef) in &self.gather {
-            m[at] += coef * values[p];
+        self.formed = false;
+        bytemuck::cast_slice_mut(&mut self.matrix.values[..])
+    }
+
+    /// What kernels wrote outside the real ED pattern since [`Self::start_assembly`],
+    /// relative to the largest entry (as [`NewtonMatrix::outside_pattern`]).
+    pub fn outside_pattern(&self) -> f64 {
+        let values = &self.matrix.values;
+        let dump = values[values.len() - 1].im.abs();
+        if dump == 0.0 {
+            return 0.0;
+        }
+        let largest = values[..values.len() - 1]
+            .iter()
+            .fold(f64::MIN_POSITIVE, |m, v| m.max(v.re.abs()).max(v.im.abs()));
+        dump / largest
+    }
+
+    /// Turns the assembled sums into the complex matrix (once per assembly) and factors it.
+    pub fn factor(&mut self) -> Result<(), String> {
+        if !self.formed {
+            let values = &mut self.matrix.values;
+            for v in values.iter_mut() {
+                v.im *= -0.5 * SQRT2;
+            }
+            for &at in &self.own_multipliers {
+                let alpha = values[at].re;
+                values[at] = c64::new(2.0, -SQRT2) * alpha;
+            }
+            self.formed = true;
         }
         self.matrix.factor()
+    }
+
+    /// Factors the complex matrix of a real ED tangent's `values` (tests: the map of every
+    /// real entry that [`DecoupledSystem::pos`] assembles through).
+    #[cfg(test)]
+    fn factor_real(&mut self, values: &[f64]) -> Result<(), String> {
+        let slots = std::mem::take(&mut self.slots);
+        let parts = self.start_assembly();
+        for (&slot, v) in slots.iter().zip(values) {
+            parts[slot] += v;
+        }
+        self.slots = slots;
+        self.factor()
     }
 
     /// Replaces the ED residual `res` by the update the complex factors give (see the module
@@ -229,7 +317,7 @@ mod tests {
         real.solve(&mut exact);
         let (col_ptr, row_idx) = real.pattern();
         let mut dec = DecoupledMatrix::new(layout, col_ptr, row_idx);
-        dec.factor(&real.values).unwrap();
+        dec.factor_real(&real.values).unwrap();
         let mut split = rhs.clone();
         dec.solve(&mut split);
         let scale = exact.iter().fold(0.0f64, |a, v| a.max(v.abs()));
@@ -289,13 +377,16 @@ joints:
         let ctx = Integrator::step_ctx(&sys, &state, h);
         integ.predict(&sys, &state, h);
         // The rows the decoupled system reads, as modified Newton assembles them (the beams'
-        // from their EP stiffness), then the exact tangent.
-        integ.assemble_for(&sys, &ctx, Some(crate::integrator::Factors::Decoupled));
-        let mut split = integ.res.clone();
-        let (col_ptr, row_idx) = integ.matrix.pattern();
-        let mut dec = DecoupledMatrix::new(sys.layout, col_ptr, row_idx);
-        dec.factor(&integ.matrix.values).unwrap();
-        dec.solve(&mut split);
+        // from their EP stiffness, straight into the complex matrix), then the exact tangent.
+        let decoupled = crate::integrator::Factors::Decoupled;
+        integ.assemble_for(&sys, &ctx, Some(decoupled));
+        integ.factor_tangent(decoupled).unwrap();
+        integ.solve_residual();
+        let split = integ.res.clone();
+        assert_eq!(
+            integ.pattern_misses, 0,
+            "decoupled entries outside the pattern"
+        );
         integ.assemble(&sys, &ctx, true);
         let mut exact = integ.res.clone();
         integ.matrix.factor().unwrap();

@@ -7,12 +7,14 @@ pub mod corotation;
 pub mod dense_output;
 mod ed_decoupled;
 mod load_response;
+mod positions;
 pub mod predictor;
 
 use convergence::{inf_norm, Measure};
 use corotation::CoRotation;
-use ed_decoupled::DecoupledMatrix;
+use ed_decoupled::DecoupledSystem;
 pub use load_response::LoadResponse;
+use positions::KernelPositions;
 
 use crate::elements::{Kernel, StepCtx};
 use crate::math::layout::Layout;
@@ -130,14 +132,8 @@ impl std::fmt::Display for StepFailure {
 pub struct Integrator {
     layout: Layout,
     pub matrix: NewtonMatrix,
-    inertia_pos: Vec<Vec<usize>>,
-    beam_pos: Vec<Vec<usize>>,
-    joint_pos: Vec<Vec<usize>>,
-    spring_pos: Vec<Vec<usize>>,
-    drive_pos: Vec<Vec<usize>>,
-    friction_pos: Vec<Vec<usize>>,
-    load_pos: Vec<Vec<usize>>,
-    line_load_pos: Vec<Vec<usize>>,
+    /// Where each kernel's tangent block goes in `matrix.values`.
+    pos: KernelPositions,
     y: Vec<f64>,
     res: Vec<f64>,
     /// Per row: the sum of the magnitudes of every kernel's contribution to it (the forces
@@ -169,8 +165,9 @@ pub struct Integrator {
     /// Assemblies of the Newton equations (each a residual, some with a tangent): with
     /// modified Newton, what most of a step's cost is counted in.
     pub residual_evaluations: usize,
-    /// ED under modified Newton: the decoupled complex system (built at its first use).
-    decoupled: Option<DecoupledMatrix>,
+    /// ED under modified Newton: the decoupled complex system and the kernels' block
+    /// positions in it (built at its first use).
+    decoupled: Option<DecoupledSystem>,
     /// Factorizations of the decoupled system, over every pattern.
     decoupled_factorizations: usize,
     factors: Factors,
@@ -249,25 +246,11 @@ impl Integrator {
         let n = sys.layout.n_unknowns();
         // Only the structurally nonzero entries enter the pattern: less fill, faster LU.
         let masks = Self::block_masks(sys, h);
-        let (matrix, mut pos) = NewtonMatrix::from_blocks(n, &blocks, Some(&masks));
-        let line_load_pos = pos.split_off(pos.len() - sys.line_loads.len());
-        let load_pos = pos.split_off(pos.len() - sys.loads.len());
-        let friction_pos = pos.split_off(pos.len() - sys.frictions.len());
-        let drive_pos = pos.split_off(pos.len() - sys.drives.len());
-        let spring_pos = pos.split_off(pos.len() - sys.springs.len());
-        let joint_pos = pos.split_off(pos.len() - sys.joints.len());
-        let beam_pos = pos.split_off(pos.len() - sys.beams.len());
+        let (matrix, pos) = NewtonMatrix::from_blocks(n, &blocks, Some(&masks));
         Integrator {
             layout: sys.layout,
             matrix,
-            inertia_pos: pos,
-            beam_pos,
-            joint_pos,
-            spring_pos,
-            drive_pos,
-            friction_pos,
-            load_pos,
-            line_load_pos,
+            pos: KernelPositions::split(sys, pos),
             y: vec![0.0; n],
             res: vec![0.0; n],
             activity: vec![0.0; n],
@@ -454,7 +437,7 @@ impl Integrator {
         let m = &self.matrix;
         let decoupled = self.decoupled.as_ref();
         m.numeric_factorizations - m.refactorizations
-            + decoupled.map_or(0, |d| d.pivoting_factorizations())
+            + decoupled.map_or(0, |d| d.matrix.pivoting_factorizations())
     }
 
     /// The factors a fresh tangent gets: under ED with modified Newton, those of the
@@ -501,13 +484,11 @@ impl Integrator {
                 self.decoupled_backoff = self.decoupled_backoff.saturating_sub(1);
             }
             Factors::Decoupled => {
-                let layout = self.layout;
-                let m = &self.matrix;
-                let d = self.decoupled.get_or_insert_with(|| {
-                    let (col_ptr, row_idx) = m.pattern();
-                    DecoupledMatrix::new(layout, col_ptr, row_idx)
-                });
-                d.factor(&m.values)?;
+                let d = self
+                    .decoupled
+                    .as_mut()
+                    .ok_or("no decoupled assembly to factor")?;
+                d.matrix.factor()?;
                 self.decoupled_factorizations += 1;
             }
         }
@@ -526,7 +507,7 @@ impl Integrator {
     /// (benchmarks).
     pub fn solve_residual(&mut self) {
         match (self.factors, self.decoupled.as_mut()) {
-            (Factors::Decoupled, Some(d)) => d.solve(&mut self.res),
+            (Factors::Decoupled, Some(d)) => d.matrix.solve(&mut self.res),
             _ => self.matrix.solve(&mut self.res),
         }
     }
@@ -571,13 +552,22 @@ impl Integrator {
         }
         self.res.iter_mut().for_each(|r| *r = 0.0);
         self.activity.iter_mut().for_each(|r| *r = 0.0);
-        if with_jacobian {
-            self.matrix.clear();
-        }
+        // The decoupled system's kernels write straight into its complex values.
+        let (vals, pos) = if decoupled {
+            let (layout, matrix, pos) = (self.layout, &self.matrix, &self.pos);
+            let d = self
+                .decoupled
+                .get_or_insert_with(|| DecoupledSystem::new(layout, matrix, pos));
+            (d.matrix.start_assembly(), &d.pos)
+        } else {
+            if with_jacobian {
+                self.matrix.clear();
+            }
+            (&mut self.matrix.values[..], &self.pos)
+        };
         let y = &self.y;
         let res = &mut self.res;
         let activity = &mut self.activity;
-        let vals = &mut self.matrix.values;
         // Each kernel's rows before it adds to them: its contribution's magnitude is activity.
         let mut before = [0.0f64; crate::elements::MAX_LOCAL];
         // `$eval(kernel, jac)` evaluates one kernel; the macro records its rows' activity.
@@ -617,17 +607,26 @@ impl Integrator {
                 }
             };
         }
-        run!(sys.inertias, self.inertia_pos);
-        run!(sys.beams, self.beam_pos);
-        run!(sys.joints, self.joint_pos);
-        run!(sys.springs, self.spring_pos);
-        run!(sys.drives, self.drive_pos);
-        run!(sys.frictions, self.friction_pos);
-        run!(sys.loads, self.load_pos);
-        run!(sys.line_loads, self.line_load_pos);
-        if with_jacobian && self.matrix.outside_pattern() > 1e-10 {
-            // A tangent entry the structure detection judged zero is not: the tangent is
-            // incomplete (slower convergence, same solution). Counted so tests can see it.
+        run!(sys.inertias, pos.inertia);
+        run!(sys.beams, pos.beam);
+        run!(sys.joints, pos.joint);
+        run!(sys.springs, pos.spring);
+        run!(sys.drives, pos.drive);
+        run!(sys.frictions, pos.friction);
+        run!(sys.loads, pos.load);
+        run!(sys.line_loads, pos.line_load);
+        self.note_pattern_miss(tangent);
+    }
+
+    /// A tangent entry the structure detection judged zero is not: the tangent is incomplete
+    /// (slower convergence, same solution). Counted so tests can see it.
+    fn note_pattern_miss(&mut self, tangent: Option<Factors>) {
+        let outside = match (tangent, &self.decoupled) {
+            (Some(Factors::Decoupled), Some(d)) => d.matrix.outside_pattern(),
+            (Some(_), _) => self.matrix.outside_pattern(),
+            (None, _) => 0.0,
+        };
+        if outside > 1e-10 {
             self.pattern_misses += 1;
         }
     }
