@@ -14,11 +14,12 @@
 
 use super::section::Mat6;
 use super::shape::MAX_NODES;
-use crate::elements::{add3, v3, Kernel, StepCtx};
+use crate::elements::{add3, residual_sized, v3, Kernel, StepCtx};
 use crate::math::layout::Layout;
 use crate::math::rotation::{cayley, cayley_rotate, rotate_material};
 use crate::math::scalar::Real;
 use crate::math::vec3::{M3, V3};
+use crate::math::wide::wide;
 
 /// History entries per Gauss point: the triad (9, row-major) and the curvature k* (3).
 pub const HISTORY_PER_POINT: usize = 12;
@@ -121,6 +122,7 @@ pub(super) struct PointStep<T> {
     pub(super) xp_f: V3<T>,
 }
 
+#[inline(always)]
 pub(super) fn mat6_mul<T: Real>(c: &Mat6, e: &[T; 6]) -> [T; 6] {
     let mut n = [T::zero(); 6];
     for (i, ni) in n.iter_mut().enumerate() {
@@ -194,6 +196,7 @@ impl BeamElement {
     }
 
     /// Kinematics of Gauss point `g` from the interpolated increments `Δx′`, `ρ` and `ρ′`.
+    #[inline(always)]
     pub(super) fn point_kinematics<T: Real>(
         &self,
         ctx: &StepCtx,
@@ -240,6 +243,7 @@ impl BeamElement {
 
     /// Spatial node quantities `[Δx, ρ = R_i r, v_j, ω_j = R_i W_j, v_f, ω_f = R_f W_f]` of
     /// each node (the last four under ED only; the jump velocities are carried as h·V_j).
+    #[inline(always)]
     pub(super) fn node_quantities<T: Real>(
         &self,
         ctx: &StepCtx,
@@ -267,6 +271,7 @@ impl BeamElement {
     }
 
     /// The point inputs (see [`P_FROM`]) of Gauss point `g`.
+    #[inline(always)]
     pub(super) fn point_inputs<T: Real>(
         &self,
         g: usize,
@@ -292,6 +297,7 @@ impl BeamElement {
     ///   `N̄ = C(ε_j + ε_f)/2`; I and F are the rate forms `B(q)ᵀ(−dN/12)` at i and f, with
     ///   `dN = C(ε_f − ε_j)`: `ne = w R_g n`, `nk = w R_g m`, `arm = ne × x′`.
     /// - Statics: F with `−C ε_f` (so that the f-rows receive `B(q_f)ᵀ C ε_f`).
+    #[inline(always)]
     pub(super) fn point_outputs<T: Real>(
         &self,
         ctx: &StepCtx,
@@ -304,6 +310,7 @@ impl BeamElement {
     }
 
     /// [`BeamElement::point_outputs`] from the point's kinematics `ps` (of the inputs `p`).
+    #[inline(always)]
     pub(super) fn point_outputs_at<T: Real>(
         &self,
         ctx: &StepCtx,
@@ -442,6 +449,7 @@ impl BeamElement {
     }
 
     /// ED's strain state `ε_j = ε_i + h/6 (B_i V_j − B_f V_f)` of a point (ed-scheme-notes §3.2).
+    #[inline(always)]
     pub(super) fn strain_jump_state<T: Real>(
         &self,
         ctx: &StepCtx,
@@ -454,6 +462,7 @@ impl BeamElement {
 
     /// ED's strain jump `ε_j − ε_i = h/6 (B_i V_j − B_f V_f)` of a point, from its inputs
     /// (the velocities' interpolations, [`P_FROM`]).
+    #[inline(always)]
     fn strain_jump<T: Real>(ctx: &StepCtx, ps: &PointStep<T>, p: &[V3<T>; P_GROUPS]) -> [T; 6] {
         let h6 = ctx.h / 6.0;
         let bi_e = ps.rg_i.tmul_v(&(p[3] + ps.xp_i.cross(&p[4])));
@@ -471,6 +480,7 @@ impl BeamElement {
     }
 
     /// Adds Gauss point `g`'s outputs to each node's row quantities (see [`U_FROM`]).
+    #[inline(always)]
     pub(super) fn add_row_quantities<T: Real>(
         &self,
         g: usize,
@@ -490,6 +500,7 @@ impl BeamElement {
 
     /// The nodal rows from the row quantities: f-force `u0`; f-moment `R_iᵀ u1 + R_fᵀ u2`;
     /// ED j-force `u3` and j-moment `R_iᵀ u4 − R_fᵀ u2` (material moments).
+    #[inline(always)]
     pub(super) fn add_nodal_rows<T: Real>(
         &self,
         ctx: &StepCtx,
@@ -704,6 +715,7 @@ impl Kernel for BeamElement {
     /// The residual through the Gauss points' forces (see [`BeamElement::point_outputs`]):
     /// node quantities → point inputs → point outputs → row quantities → nodal rows. The
     /// tangent (`beam/tangent.rs`) is the chain rule through the same stages.
+    #[inline(always)]
     fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], res: &mut [T]) {
         let q = self.node_quantities(ctx, y);
         let mut u = [[V3::<T>::zero(); U_GROUPS]; MAX_NODES];
@@ -725,9 +737,26 @@ impl Kernel for BeamElement {
         jac: Option<(&mut [f64], &[usize])>,
     ) {
         match jac {
-            None => crate::elements::eval_kernel(self, ctx, y, res, None),
+            None => wide(
+                #[inline(always)]
+                || residual_sized(self, ctx, y, res, None),
+            ),
             Some((vals, pos)) => super::tangent::evaluate(self, ctx, y, res, vals, pos),
         }
+    }
+
+    /// The residual compiled for the processor's wider vectors ([`wide`]).
+    fn residual_with_activity(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        res: &mut [f64],
+        activity: &mut [f64],
+    ) {
+        wide(
+            #[inline(always)]
+            || residual_sized(self, ctx, y, res, Some(activity)),
+        )
     }
 
     /// ED: the residual and, of the tangent, only the j-rows the decoupled complex system

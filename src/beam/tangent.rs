@@ -44,6 +44,21 @@ pub(super) fn evaluate(
     vals: &mut [f64],
     pos: &[usize],
 ) {
+    crate::math::wide::wide(
+        #[inline(always)]
+        || evaluate_body(el, ctx, y, res, vals, pos),
+    )
+}
+
+#[inline(always)]
+fn evaluate_body(
+    el: &BeamElement,
+    ctx: &StepCtx,
+    y: &[f64],
+    res: &mut [f64],
+    vals: &mut [f64],
+    pos: &[usize],
+) {
     let idx = crate::elements::Kernel::unknowns(el);
     let n = idx.len();
     let mut yl = [0.0f64; MAX_ELEMENT];
@@ -115,6 +130,21 @@ pub(super) fn decoupled_surrogate(
     vals: &mut [f64],
     pos: &[usize],
 ) {
+    crate::math::wide::wide(
+        #[inline(always)]
+        || decoupled_surrogate_body(el, ctx, y, res, vals, pos),
+    )
+}
+
+#[inline(always)]
+fn decoupled_surrogate_body(
+    el: &BeamElement,
+    ctx: &StepCtx,
+    y: &[f64],
+    res: &mut [f64],
+    vals: &mut [f64],
+    pos: &[usize],
+) {
     crate::elements::eval_kernel(el, ctx, y, res, None);
     let idx = crate::elements::Kernel::unknowns(el);
     let n = idx.len();
@@ -152,6 +182,7 @@ pub(super) fn decoupled_surrogate(
 /// [`evaluate`] with `N` dual directions per point, the row quantities `active` (`NU`), `NQ`
 /// node quantities, `NO` point outputs, `NP` point inputs and `NY` unknown groups per node:
 /// the working arrays are no larger than the mode needs (they are zeroed on every call).
+#[inline(always)]
 fn chained<
     const N: usize,
     const NU: usize,
@@ -229,6 +260,7 @@ fn row_weights<const NU: usize, const NO: usize, const NP: usize>(
 /// Point outputs, and their Jacobian `∂o/∂p` into `jac` in 3×3 blocks `[output group][input
 /// group]`, the first `NO` outputs and `NP` inputs (the others are zero in the mode): in
 /// closed form for a time step ([`closed_point_jacobian`]), by one dual pass in statics.
+#[inline(always)]
 fn point_jacobian<const N: usize, const NO: usize, const NP: usize>(
     el: &BeamElement,
     ctx: &StepCtx,
@@ -249,6 +281,7 @@ fn point_jacobian<const N: usize, const NO: usize, const NP: usize>(
 
 /// [`point_jacobian`] of a time step from [`closed_point_derivatives`]: EP's `NO = NP = 3`
 /// (D's outputs over the geometric inputs), ED's `NO = NP = 9`.
+#[inline(always)]
 fn closed_point_jacobian<const NO: usize, const NP: usize>(
     el: &BeamElement,
     ctx: &StepCtx,
@@ -268,6 +301,7 @@ fn closed_point_jacobian<const NO: usize, const NP: usize>(
 
 /// `∂(H(ρ) z)/∂ρ` for a fixed `z`, with `H = I − ρρᵀ/(4 + ρᵀρ)`:
 /// `−((ρ·z) I + ρ zᵀ)/(4 + ρᵀρ) + 2 (ρ·z) ρρᵀ/(4 + ρᵀρ)²`.
+#[inline(always)]
 fn h_times_gradient(rho: &V3<f64>, z: &V3<f64>) -> B3 {
     let d = 1.0 / (4.0 + rho.norm_sq());
     let rz = rho.dot(z);
@@ -285,6 +319,7 @@ const CLOSED_DIRS: usize = 5;
 /// The strains' derivatives at a Gauss point, `∂ε_f` and `∂ε_j` as [strain half][direction]
 /// (directions: the point's position and rotation inputs, its curvature input, and under ED
 /// the strain jump's offsets), and the strains at j (under EP those at i).
+#[inline(always)]
 fn strain_derivatives<const ND: usize>(
     el: &BeamElement,
     ctx: &StepCtx,
@@ -333,6 +368,7 @@ fn strain_derivatives<const ND: usize>(
 /// Returns the outputs, and writes into `jac`'s first `ND` columns `∂o/∂p` for the geometric
 /// inputs and `∂o/∂ε_j` by strain half, of the first `NO` outputs (EP: 3, the others being
 /// zero).
+#[inline(always)]
 fn closed_point_derivatives<const ND: usize, const NO: usize, const NP: usize>(
     el: &BeamElement,
     ctx: &StepCtx,
@@ -405,6 +441,7 @@ fn closed_point_derivatives<const ND: usize, const NO: usize, const NP: usize>(
 }
 
 /// `a` times a 6×6 matrix, as 3×3 blocks `[[11, 12], [21, 22]]`.
+#[inline(always)]
 fn blocks(m: &crate::beam::section::Mat6, a: f64) -> [[B3; 2]; 2] {
     let blk = |i: usize, j: usize| {
         M3(std::array::from_fn(|r| {
@@ -416,6 +453,7 @@ fn blocks(m: &crate::beam::section::Mat6, a: f64) -> [[B3; 2]; 2] {
 
 /// The D-part's mean sectional force and moment, `C (ε_j + ε_f)/2 + D (ε_f − ε_i)/h` (EP:
 /// ε_j is ε_i), as in [`BeamElement::point_outputs`].
+#[inline(always)]
 fn mean_forces(
     el: &BeamElement,
     ctx: &StepCtx,
@@ -480,6 +518,7 @@ fn dual_point_jacobian<const N: usize>(
 /// ED: the outputs are affine in the velocity inputs, which act only through ε_j:
 /// `∂o/∂p_k = (∂o/∂ε_j) (∂ε_j/∂p_k)`, with `ε_j = ε_i + h/6 (B_i V_j − B_f V_f)`.
 /// `d_j[og][half]` is `∂o/∂ε_j` by strain half.
+#[inline(always)]
 fn velocity_columns<const NO: usize, const NP: usize>(
     el: &BeamElement,
     ctx: &StepCtx,
@@ -524,6 +563,7 @@ struct NodalMaps<const NQ: usize, const NY: usize> {
 }
 
 impl<const NQ: usize, const NY: usize> NodalMaps<NQ, NY> {
+    #[inline(always)]
     fn new(
         el: &BeamElement,
         ctx: &StepCtx,
@@ -581,6 +621,7 @@ impl<const NQ: usize, const NY: usize> NodalMaps<NQ, NY> {
 
     /// The 3×3 blocks `[row group][unknown group]` of `∂rows^a/∂y^b` from `G = ∂u^a/∂q^b`
     /// (`NY` groups: 2 for EP and statics, 4 for ED).
+    #[inline(always)]
     fn block<const NU: usize>(
         &self,
         a: usize,
@@ -634,7 +675,7 @@ impl<const NQ: usize, const NY: usize> NodalMaps<NQ, NY> {
     }
 }
 
-#[inline]
+#[inline(always)]
 fn axpy(y: &mut B3, c: f64, x: &B3) {
     for i in 0..3 {
         for j in 0..3 {

@@ -157,7 +157,8 @@ pub fn eval_kernel<K: Kernel>(
 
 /// [`residual_pass`] with buffers sized to the block: zeroing MAX_LOCAL entries for every
 /// kernel was 7–10 % of a beam model's residual.
-fn residual_sized<K: Kernel>(
+#[inline(always)]
+pub(crate) fn residual_sized<K: Kernel>(
     k: &K,
     ctx: &StepCtx,
     y: &[f64],
@@ -175,6 +176,7 @@ fn residual_sized<K: Kernel>(
 
 /// The residual alone, with local buffers of `M ≥ n` entries (and, if given, each row's
 /// contribution magnitude added to `activity`).
+#[inline(always)]
 fn residual_pass<K: Kernel, const M: usize>(
     k: &K,
     ctx: &StepCtx,

@@ -8,3 +8,4 @@ pub mod rotation;
 pub mod scalar;
 pub mod time_function;
 pub mod vec3;
+pub mod wide;
