@@ -12,10 +12,11 @@
 //! steady rotation (centrifugal force and gyroscopic moment): the static solution is then the
 //! rotor's equilibrium in the frame turning with it, from which it spins steadily.
 
-use super::{add3, v3, Kernel, StepCtx};
+use super::{add3, residual_sized, v3, Kernel, StepCtx};
 use crate::math::rotation::{inv_i_minus_half_tilde, rotate_material};
 use crate::math::scalar::Real;
 use crate::math::vec3::{M3, V3};
+use crate::math::wide::wide;
 
 /// A steady rotation at angular velocity `omega` (inertial frame, rad/s) about the axis through
 /// `center`.
@@ -59,7 +60,7 @@ impl NodeInertia {
 }
 
 /// `(I − r̃/2)⁻¹ [J (W_b − W_a) + ½ r̃ J (W_b + W_a)] / h`: the rotational momentum row.
-#[inline]
+#[inline(always)]
 fn rotational_row<T: Real>(j: &M3<T>, r: &V3<T>, wa: &V3<T>, wb: &V3<T>, h: f64) -> V3<T> {
     let dw = j.mul_v(&(*wb - *wa));
     let gyro = r.cross(&j.mul_v(&(*wb + *wa))).scale_f(0.5);
@@ -71,6 +72,7 @@ fn rotational_row<T: Real>(j: &M3<T>, r: &V3<T>, wa: &V3<T>, wb: &V3<T>, h: f64)
 /// [`rotational_row`] `f = B(ρ) z / h` with its derivatives `(∂f/∂ρ, ∂f/∂W_b)`, where
 /// `B = (I − ρ̃/2)⁻¹` and `z = J (W_b − W_a) + ½ ρ̃ J (W_b + W_a)`: from `dB = ½ B δ̃ B`,
 /// `∂f/∂ρ = B (−½ (J(W_b + W_a))~ − ½ (B z)~)/h` and `∂f/∂W_b = B (J + ½ ρ̃ J)/h`.
+#[inline(always)]
 fn rotational_row_jacobian(
     j: &M3<f64>,
     rho: &V3<f64>,
@@ -105,11 +107,33 @@ impl Kernel for NodeInertia {
         jac: Option<(&mut [f64], &[usize])>,
     ) {
         match jac {
-            Some((vals, pos)) if !ctx.is_static() => self.step_tangent(ctx, y, res, vals, pos),
+            Some((vals, pos)) if !ctx.is_static() => wide(
+                #[inline(always)]
+                || self.step_tangent(ctx, y, res, vals, pos),
+            ),
+            None => wide(
+                #[inline(always)]
+                || residual_sized(self, ctx, y, res, None),
+            ),
             jac => super::eval_kernel(self, ctx, y, res, jac),
         }
     }
 
+    /// The residual compiled for the processor's wider vectors ([`wide`]).
+    fn residual_with_activity(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        res: &mut [f64],
+        activity: &mut [f64],
+    ) {
+        wide(
+            #[inline(always)]
+            || residual_sized(self, ctx, y, res, Some(activity)),
+        )
+    }
+
+    #[inline(always)]
     fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], res: &mut [T]) {
         if let Some(lf) = ctx.statics {
             add3(
@@ -168,6 +192,7 @@ impl NodeInertia {
     /// See [`Kernel::evaluate`]. With `W_f = 2r/h − W_s` (`W_s` = `W_i` under EP, `W_j =
     /// y_9/h` under ED) and ED's `r_j = h (W_j − W_f)/6 = (y_9 − r)/3`, the rotational rows'
     /// derivatives follow from those of [`rotational_row_jacobian`] by the chain rule.
+    #[inline(always)]
     fn step_tangent(
         &self,
         ctx: &StepCtx,
