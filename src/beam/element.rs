@@ -278,14 +278,15 @@ impl BeamElement {
         q: &[[V3<T>; Q_GROUPS]; MAX_NODES],
     ) -> [V3<T>; P_GROUPS] {
         let p = &self.points[g];
-        std::array::from_fn(|k| {
-            let (from, derivative) = P_FROM[k];
-            let mut s = V3::<T>::zero();
-            for (a, qa) in q.iter().enumerate().take(self.nodes.len()) {
-                s += qa[from].scale_f(if derivative { p.dh[a] } else { p.h[a] });
+        // A plain loop, not `array::from_fn`: its closure is not inlined into wide kernels.
+        let mut inputs = [V3::<T>::zero(); P_GROUPS];
+        for (s, &(from, derivative)) in inputs.iter_mut().zip(&P_FROM) {
+            let weights = if derivative { &p.dh } else { &p.h };
+            for (qa, &w) in q.iter().zip(weights).take(self.nodes.len()) {
+                *s += qa[from].scale_f(w);
             }
-            s
-        })
+        }
+        inputs
     }
 
     /// The forces of Gauss point `g` as the outputs `[ne, arm, nk]` of three groups (see
@@ -469,14 +470,12 @@ impl BeamElement {
         let bi_k = ps.rg_i.tmul_v(&p[5]);
         let bf_e = ps.rg_f.tmul_v(&(p[6] + ps.xp_f.cross(&p[7])));
         let bf_k = ps.rg_f.tmul_v(&p[8]);
-        std::array::from_fn(|k| {
-            let (bi, bf) = if k < 3 {
-                (bi_e.0[k], bf_e.0[k])
-            } else {
-                (bi_k.0[k - 3], bf_k.0[k - 3])
-            };
-            (bi - bf) * h6
-        })
+        let mut jump = [T::zero(); 6];
+        for k in 0..3 {
+            jump[k] = (bi_e.0[k] - bf_e.0[k]) * h6;
+            jump[k + 3] = (bi_k.0[k] - bf_k.0[k]) * h6;
+        }
+        jump
     }
 
     /// Adds Gauss point `g`'s outputs to each node's row quantities (see [`U_FROM`]).

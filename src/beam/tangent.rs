@@ -145,7 +145,7 @@ fn decoupled_surrogate_body(
     vals: &mut [f64],
     pos: &[usize],
 ) {
-    crate::elements::eval_kernel(el, ctx, y, res, None);
+    crate::elements::residual_sized(el, ctx, y, res, None);
     let idx = crate::elements::Kernel::unknowns(el);
     let n = idx.len();
     let mut yl = [0.0f64; MAX_ELEMENT];
@@ -389,25 +389,27 @@ fn closed_point_derivatives<const ND: usize, const NO: usize, const NP: usize>(
     let o = el.point_outputs_at(ctx, g, &ps, p, &[0.0; 6]);
     let hs = rodrigues_h(rho);
     let (d_f, d_j, eps_j) = strain_derivatives::<ND>(el, ctx, &ps, p, &hs);
-    // w C by 3×3 blocks; `wc(half, ∂ε)` = the sectional forces' half of w C ∂ε.
+    // w C by 3×3 blocks; `half_force(cb, half, ∂ε)` = the sectional forces' half of w C ∂ε.
     let cb = blocks(c, w);
-    let wc = |half: usize, e: [B3; 2]| cb[half][0].mul_m(&e[0]) + cb[half][1].mul_m(&e[1]);
     // Sectional damping: the mean forces gain `D (ε_f − ε_i)/h`, so `w D/h ∂ε_f`.
     let db = pt.damping.as_ref().map(|d| blocks(d, w / ctx.h));
-    let mean_force = |half: usize, k: usize| {
-        let mean = |h: usize| (d_f[h][k] + d_j[h][k]).scale_f(0.5);
-        let elastic = wc(half, [mean(0), mean(1)]);
-        match &db {
-            Some(db) => elastic + db[half][0].mul_m(&d_f[0][k]) + db[half][1].mul_m(&d_f[1][k]),
-            None => elastic,
-        }
-    };
     let (n_f, n_m) = mean_forces(el, ctx, g, &ps, &eps_j);
     let xm_t = (ps.xp_i + ps.xp_f).scale_f(0.5).tilde();
     let hrm = ps.hm.mul_m(&ps.rm);
+    // Plain loops and functions, not closures: those are not inlined into wide kernels.
     for k in 0..ND {
-        jac[0][k] = ps.rm.mul_m(&mean_force(0, k));
-        jac[2][k] = hrm.mul_m(&mean_force(1, k));
+        let mean = [
+            (d_f[0][k] + d_j[0][k]).scale_f(0.5),
+            (d_f[1][k] + d_j[1][k]).scale_f(0.5),
+        ];
+        let mut force = [half_force(&cb, 0, &mean), half_force(&cb, 1, &mean)];
+        if let Some(db) = &db {
+            for (half, f) in force.iter_mut().enumerate() {
+                *f = *f + db[half][0].mul_m(&d_f[0][k]) + db[half][1].mul_m(&d_f[1][k]);
+            }
+        }
+        jac[0][k] = ps.rm.mul_m(&force[0]);
+        jac[2][k] = hrm.mul_m(&force[1]);
     }
     jac[0][1] = jac[0][1] - ps.rg_f.mul_v(&n_f).tilde().mul_m(&hs).scale_f(0.5 * w);
     jac[2][1] = jac[2][1] + h_times_gradient(rho, &ps.rm.mul_v(&n_m)).scale_f(w)
@@ -422,8 +424,11 @@ fn closed_point_derivatives<const ND: usize, const NO: usize, const NP: usize>(
     if ed {
         let (xi_t, xf_t) = (ps.xp_i.tilde(), ps.xp_f.tilde());
         for k in 0..ND {
-            let jump = |h: usize| (d_f[h][k] - d_j[h][k]).scale_f(-1.0 / 12.0);
-            let (dn_f, dn_m) = (wc(0, [jump(0), jump(1)]), wc(1, [jump(0), jump(1)]));
+            let jump = [
+                (d_f[0][k] - d_j[0][k]).scale_f(-1.0 / 12.0),
+                (d_f[1][k] - d_j[1][k]).scale_f(-1.0 / 12.0),
+            ];
+            let (dn_f, dn_m) = (half_force(&cb, 0, &jump), half_force(&cb, 1, &jump));
             jac[3][k] = ps.rg_i.mul_m(&dn_f);
             jac[5][k] = ps.rg_i.mul_m(&dn_m);
             jac[4][k] = B3::zero() - xi_t.mul_m(&jac[3][k]);
@@ -438,6 +443,13 @@ fn closed_point_derivatives<const ND: usize, const NO: usize, const NP: usize>(
         jac[7][0] = jac[7][0] + o[6].tilde();
     }
     o
+}
+
+/// The sectional forces' half `half` (force 0, moment 1) of `C ∂ε`, with `C` in 3×3
+/// blocks (see [`blocks`]) and `∂ε` by strain half.
+#[inline(always)]
+fn half_force(cb: &[[B3; 2]; 2], half: usize, e: &[B3; 2]) -> B3 {
+    cb[half][0].mul_m(&e[0]) + cb[half][1].mul_m(&e[1])
 }
 
 /// `a` times a 6×6 matrix, as 3×3 blocks `[[11, 12], [21, 22]]`.

@@ -38,6 +38,18 @@ pub struct NodeInertia {
 }
 
 impl NodeInertia {
+    /// Adds the 3×3 block `blk` at local (`row`, `col`) of the kernel's tangent (a method,
+    /// not a closure: closures are not inlined into wide kernels).
+    #[inline(always)]
+    fn put(&self, vals: &mut [f64], pos: &[usize], row: usize, col: usize, blk: &M3<f64>) {
+        let n = self.unknowns.len();
+        for (i, bi) in blk.0.iter().enumerate() {
+            for (k, v) in bi.iter().enumerate() {
+                vals[pos[(row + i) * n + col + k]] += v;
+            }
+        }
+    }
+
     pub fn new(
         node: usize,
         mass: f64,
@@ -208,36 +220,35 @@ impl NodeInertia {
         for (&g, r) in self.unknowns.iter().zip(&rl) {
             res[g] += r;
         }
-        let mut put = |row: usize, col: usize, blk: &M3<f64>| {
-            for (i, bi) in blk.0.iter().enumerate() {
-                for (k, v) in bi.iter().enumerate() {
-                    vals[pos[(row + i) * n + col + k]] += v;
-                }
-            }
-        };
         let h = ctx.h;
         let k = M3::<f64>::identity().scale_f(self.mass / (h * h));
-        put(0, 0, &k.scale_f(2.0));
+        self.put(vals, pos, 0, 0, &k.scale_f(2.0));
         let ni = &ctx.state.nodes[self.node];
         let r = v3(&yl, 3);
         if !ctx.ed() {
             let wf = r.scale_f(2.0 / h) - ni.w;
             let (_, d_rho, d_wb) = rotational_row_jacobian(&self.inertia, &r, &ni.w, &wf, h);
-            put(3, 3, &(d_rho + d_wb.scale_f(2.0 / h)));
+            self.put(vals, pos, 3, 3, &(d_rho + d_wb.scale_f(2.0 / h)));
             return;
         }
-        put(0, 6, &k.scale_f(-1.0));
-        put(6, 6, &k);
+        self.put(vals, pos, 0, 6, &k.scale_f(-1.0));
+        self.put(vals, pos, 6, 6, &k);
         let y9 = v3(&yl, 9);
         let wj = y9.scale_f(1.0 / h);
         let wf = r.scale_f(2.0 / h) - wj;
         let (_, d_rho, d_wb) = rotational_row_jacobian(&self.inertia, &r, &ni.w, &wf, h);
-        put(3, 3, &(d_rho + d_wb.scale_f(2.0 / h)));
-        put(3, 9, &d_wb.scale_f(-1.0 / h));
+        self.put(vals, pos, 3, 3, &(d_rho + d_wb.scale_f(2.0 / h)));
+        self.put(vals, pos, 3, 9, &d_wb.scale_f(-1.0 / h));
         let rj = (y9 - r).scale_f(1.0 / 3.0);
         let (_, d_rho, d_wb) = rotational_row_jacobian(&self.inertia, &rj, &ni.w, &wj, h);
-        put(9, 3, &d_rho.scale_f(-1.0 / 3.0));
-        put(9, 9, &(d_rho.scale_f(1.0 / 3.0) + d_wb.scale_f(1.0 / h)));
+        self.put(vals, pos, 9, 3, &d_rho.scale_f(-1.0 / 3.0));
+        self.put(
+            vals,
+            pos,
+            9,
+            9,
+            &(d_rho.scale_f(1.0 / 3.0) + d_wb.scale_f(1.0 / h)),
+        );
     }
 }
 
