@@ -169,6 +169,17 @@ struct Share<T> {
     rates: Option<(Grad<T, SHARE_NC>, Grad<T, SHARE_NC>)>,
 }
 
+impl<T: Real> Share<T> {
+    /// A share to be written by [`SlidingJoint::node_share`] (with rates under ED).
+    fn new(ed: bool) -> Self {
+        Share {
+            c_f: [T::zero(); MAX_ROWS],
+            b: zero_grad(),
+            rates: ed.then(|| (zero_grad(), zero_grad())),
+        }
+    }
+}
+
 /// Adds a share's columns into the joint's: node j's block, the follower's, ζ.
 fn scatter<T: Real>(b: &mut Grad<T, NC>, share: &Grad<T, SHARE_NC>, col: usize, n: usize) {
     for r in 0..n {
@@ -257,7 +268,8 @@ impl StepEquations<SHARE_NC> for NodeShare<'_> {
             joint.pose::<T>(ctx.state, joint.follower, None, None),
             joint.pose(ctx.state, joint.follower, fol_slot, Some(y)),
         ];
-        let share = joint.node_share(ctx, self.j, &w, node, fol);
+        let mut share = Share::new(ctx.ed());
+        joint.node_share(ctx, self.j, &w, node, fol, &mut share);
         // Jump slots as the block is laid out (ED's, also under its decoupled surrogate).
         let ed = self.joint.per() == 2;
         let mut blocks = [NodeColumns {
@@ -477,7 +489,7 @@ impl SlidingJoint {
     fn blend<T: Real>(b: &mut Grad<T, SHARE_NC>, pair: &Rows<T>, w: T, n: usize) {
         for r in 0..n {
             for c in 0..12 {
-                b[r][c] += pair[r][c] * w;
+                b[r][c] = pair[r][c] * w;
             }
         }
     }
@@ -510,8 +522,9 @@ impl SlidingJoint {
     }
 
     /// Window node `j`'s share of the joint's equations: its pair law with the follower,
-    /// blended by its weights, over the columns `[node j, follower, ζ]`. The joint's value and
-    /// gradients are the sums of these shares.
+    /// blended by its weights, over the columns `[node j, follower, ζ]`, written into every
+    /// row of `share` the law has (in place: a share of dual numbers is tens of kilobytes).
+    /// The joint's value and gradients are the sums of these shares.
     #[allow(clippy::too_many_arguments)]
     fn node_share<T: Real>(
         &self,
@@ -520,18 +533,19 @@ impl SlidingJoint {
         w: &WindowWeights<T>,
         node: [(V3<T>, M3<T>); 2],
         fol: [(V3<T>, M3<T>); 2],
-    ) -> Share<T> {
+        share: &mut Share<T>,
+    ) {
         let n = self.n_rows();
         let si = self.pair_state(node[0], fol[0]);
         let sf = self.pair_state(node[1], fol[1]);
         let (mut gi, mut gf) = ([T::zero(); MAX_ROWS], [T::zero(); MAX_ROWS]);
         self.law.value(&si, &mut gi);
         self.law.value(&sf, &mut gf);
-        let mut share = Share {
-            c_f: [T::zero(); MAX_ROWS],
-            b: zero_grad(),
-            rates: ctx.ed().then(|| (zero_grad(), zero_grad())),
-        };
+        debug_assert_eq!(
+            share.rates.is_some(),
+            ctx.ed(),
+            "a share with rates under ED"
+        );
         for r in 0..n {
             share.c_f[r] = w.hf[j] * gf[r];
         }
@@ -552,10 +566,11 @@ impl SlidingJoint {
             }
         }
         if let Some((b_i, b_f)) = share.rates.as_mut() {
-            pair = [[T::zero(); NCOL]; MAX_ROWS];
+            // Only the law's rows are read back.
+            pair[..n].fill([T::zero(); NCOL]);
             self.law.rate(&si, &mut pair);
             Self::blend(b_i, &pair, w.hi[j], n);
-            pair = [[T::zero(); NCOL]; MAX_ROWS];
+            pair[..n].fill([T::zero(); NCOL]);
             self.law.rate(&sf, &mut pair);
             Self::blend(b_f, &pair, w.hf[j], n);
             for r in 0..n {
@@ -563,7 +578,6 @@ impl SlidingJoint {
                 b_f[r][SHARE_ZETA] = w.dhf[j] * gf[r];
             }
         }
-        share
     }
 
     /// The joint's value and gradients for a step (or a static solve) at the local block `y`:
@@ -585,6 +599,8 @@ impl SlidingJoint {
             nodes: [None; MAX_WINDOW_NODES + 1],
         };
         let first = self.first_node();
+        // Each share writes all of its rows: one serves every node.
+        let mut share = Share::new(ed);
         for j in (0..=(self.last_node() - first)).filter(|&j| w.active(j)) {
             let side = Side::Node(self.beam_nodes[first + j]);
             let slot = 6 * per * j;
@@ -592,7 +608,7 @@ impl SlidingJoint {
                 self.pose::<T>(ctx.state, side, None, None),
                 self.pose(ctx.state, side, Some(slot), Some(y)),
             ];
-            let share = self.node_share(ctx, j, &w, node, fol);
+            self.node_share(ctx, j, &w, node, fol, &mut share);
             for r in 0..n {
                 t.c_f[r] += share.c_f[r];
             }
