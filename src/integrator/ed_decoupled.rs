@@ -182,18 +182,12 @@ impl DecoupledMatrix {
         bytemuck::cast_slice_mut(&mut self.matrix.values[..])
     }
 
-    /// What kernels wrote outside the real ED pattern since [`Self::start_assembly`],
-    /// relative to the largest entry (as [`NewtonMatrix::outside_pattern`]).
-    pub fn outside_pattern(&self) -> f64 {
+    /// Whether kernels wrote more than `tolerance` times the largest entry outside the real
+    /// ED pattern since [`Self::start_assembly`] (as [`NewtonMatrix::wrote_outside`]).
+    pub fn wrote_outside(&self, tolerance: f64) -> bool {
         let values = &self.matrix.values;
         let dump = values[values.len() - 1].im.abs();
-        if dump == 0.0 {
-            return 0.0;
-        }
-        let largest = values[..values.len() - 1]
-            .iter()
-            .fold(f64::MIN_POSITIVE, |m, v| m.max(v.re.abs()).max(v.im.abs()));
-        dump / largest
+        self.matrix.exceeds_entries(dump, tolerance)
     }
 
     /// Turns the assembled sums into the complex matrix (once per assembly) and factors it.

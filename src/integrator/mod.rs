@@ -621,12 +621,12 @@ impl Integrator {
     /// A tangent entry the structure detection judged zero is not: the tangent is incomplete
     /// (slower convergence, same solution). Counted so tests can see it.
     fn note_pattern_miss(&mut self, tangent: Option<Factors>) {
-        let outside = match (tangent, &self.decoupled) {
-            (Some(Factors::Decoupled), Some(d)) => d.matrix.outside_pattern(),
-            (Some(_), _) => self.matrix.outside_pattern(),
-            (None, _) => 0.0,
+        let missed = match (tangent, &self.decoupled) {
+            (Some(Factors::Decoupled), Some(d)) => d.matrix.wrote_outside(1e-10),
+            (Some(_), _) => self.matrix.wrote_outside(1e-10),
+            (None, _) => false,
         };
-        if outside > 1e-10 {
+        if missed {
             self.pattern_misses += 1;
         }
     }

@@ -33,6 +33,8 @@ pub struct NewtonMatrix<T: Entry = f64> {
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     pub values: Vec<T>,
+    /// Positions of the diagonal entries (every one is in the pattern).
+    diagonal: Vec<usize>,
     /// Column order (reverse Cuthill–McKee) and its inverse.
     col_perm: Vec<usize>,
     col_perm_inv: Vec<usize>,
@@ -114,11 +116,21 @@ impl<T: Entry> NewtonMatrix<T> {
     /// entry present), all values zero, with its factorization analysed.
     pub fn from_pattern(n: usize, col_ptr: Vec<usize>, row_idx: Vec<usize>) -> Self {
         let nnz = row_idx.len();
+        let diagonal = (0..n)
+            .map(|j| {
+                let col = &row_idx[col_ptr[j]..col_ptr[j + 1]];
+                col_ptr[j]
+                    + col
+                        .binary_search(&j)
+                        .expect("every diagonal entry in the pattern")
+            })
+            .collect();
         let mut m = NewtonMatrix {
             n,
             col_ptr,
             row_idx,
             values: vec![T::default(); nnz + 1],
+            diagonal,
             col_perm: vec![],
             col_perm_inv: vec![],
             row_perm: vec![0; n],
@@ -217,25 +229,32 @@ impl<T: Entry> NewtonMatrix<T> {
     ) {
         self.factors.solve_mapped(data, load, store);
     }
+
+    /// Whether kernels wrote more than `tolerance` times the largest entry outside the pattern
+    /// since the last `clear` (round-off level when the detected block structures are right).
+    pub fn wrote_outside(&self, tolerance: f64) -> bool {
+        self.exceeds_entries(self.values[self.row_idx.len()].magnitude(), tolerance)
+    }
+
+    /// Whether `size` exceeds `tolerance` times the largest entry. The largest diagonal entry
+    /// bounds that from below, so the pass over every value is taken only when `size` is
+    /// large against the diagonal (kernels leave round-off outside the pattern, e.g. a sliding
+    /// joint's, on every assembly).
+    pub fn exceeds_entries(&self, size: f64, tolerance: f64) -> bool {
+        let largest = |entries: &mut dyn Iterator<Item = &T>| {
+            entries.fold(f64::MIN_POSITIVE, |m, v| m.max(v.magnitude()))
+        };
+        let nnz = self.row_idx.len();
+        size > 0.0
+            && size > tolerance * largest(&mut self.diagonal.iter().map(|&p| &self.values[p]))
+            && size > tolerance * largest(&mut self.values[..nnz].iter())
+    }
 }
 
 impl NewtonMatrix<f64> {
     /// Entries of the L and U factors in use, diagonals included (fill diagnostics).
     pub fn factor_nnz(&self) -> usize {
         self.factors.nnz()
-    }
-
-    /// Whatever kernels wrote outside the pattern since the last `clear`, relative to the
-    /// largest entry (round-off level when the detected block structures are right).
-    pub fn outside_pattern(&self) -> f64 {
-        let dump = self.values[self.row_idx.len()].abs();
-        if dump == 0.0 {
-            return 0.0;
-        }
-        dump / self
-            .values
-            .iter()
-            .fold(f64::MIN_POSITIVE, |m, v| m.max(v.abs()))
     }
 
     /// Adds `v` to diagonal entry `i` if the pattern holds it (returns whether it did).
@@ -550,5 +569,30 @@ mod tests {
         }
         m.factor().unwrap();
         assert_eq!((m.numeric_factorizations, m.orderings), (2, 1));
+    }
+
+    /// A write outside the pattern (to a masked-out entry) counts when it exceeds the
+    /// tolerance against the largest entry — an off-diagonal one here, larger than every
+    /// diagonal entry, so the cheap diagonal bound alone would misjudge it — and round-off
+    /// does not.
+    #[test]
+    fn writes_outside_the_pattern_are_told_from_round_off() {
+        let block = [0usize, 1, 2];
+        // Entry (0, 2) is masked out.
+        let mask = vec![vec![true, true, false, true, true, true, true, true, true]];
+        let (mut m, pos) = NewtonMatrix::<f64>::from_blocks(3, &[&block], Some(&mask));
+        let k = [1.0, 1e6, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 3.0];
+        let mut assemble = |outside: f64| {
+            m.clear();
+            for (&p, v) in pos[0].iter().zip(k) {
+                m.values[p] += v;
+            }
+            m.values[pos[0][2]] += outside;
+            m.wrote_outside(1e-10)
+        };
+        assert!(!assemble(0.0));
+        // 5e-5 is 2.5e-5 of the diagonal's largest, 5e-11 of the largest entry: round-off.
+        assert!(!assemble(5e-5));
+        assert!(assemble(1e-3));
     }
 }
