@@ -14,12 +14,11 @@
 
 use super::section::Mat6;
 use super::shape::MAX_NODES;
-use crate::elements::{add3, residual_sized, v3, Kernel, StepCtx};
+use crate::elements::{add3, v3, Kernel, StepCtx};
 use crate::math::layout::Layout;
 use crate::math::rotation::{cayley, cayley_rotate, rotate_material};
 use crate::math::scalar::Real;
 use crate::math::vec3::{M3, V3};
-use crate::math::wide::wide;
 
 /// History entries per Gauss point: the triad (9, row-major) and the curvature k* (3).
 pub const HISTORY_PER_POINT: usize = 12;
@@ -736,26 +735,9 @@ impl Kernel for BeamElement {
         jac: Option<(&mut [f64], &[usize])>,
     ) {
         match jac {
-            None => wide(
-                #[inline(always)]
-                || residual_sized(self, ctx, y, res, None),
-            ),
+            None => crate::elements::eval_kernel(self, ctx, y, res, None),
             Some((vals, pos)) => super::tangent::evaluate(self, ctx, y, res, vals, pos),
         }
-    }
-
-    /// The residual compiled for the processor's wider vectors ([`wide`]).
-    fn residual_with_activity(
-        &self,
-        ctx: &StepCtx,
-        y: &[f64],
-        res: &mut [f64],
-        activity: &mut [f64],
-    ) {
-        wide(
-            #[inline(always)]
-            || residual_sized(self, ctx, y, res, Some(activity)),
-        )
     }
 
     /// ED: the residual and, of the tangent, only the j-rows the decoupled complex system

@@ -12,7 +12,7 @@
 //! steady rotation (centrifugal force and gyroscopic moment): the static solution is then the
 //! rotor's equilibrium in the frame turning with it, from which it spins steadily.
 
-use super::{add3, residual_sized, v3, Kernel, StepCtx};
+use super::{add3, v3, Kernel, StepCtx};
 use crate::math::rotation::{inv_i_minus_half_tilde, rotate_material};
 use crate::math::scalar::Real;
 use crate::math::vec3::{M3, V3};
@@ -123,26 +123,8 @@ impl Kernel for NodeInertia {
                 #[inline(always)]
                 || self.step_tangent(ctx, y, res, vals, pos),
             ),
-            None => wide(
-                #[inline(always)]
-                || residual_sized(self, ctx, y, res, None),
-            ),
             jac => super::eval_kernel(self, ctx, y, res, jac),
         }
-    }
-
-    /// The residual compiled for the processor's wider vectors ([`wide`]).
-    fn residual_with_activity(
-        &self,
-        ctx: &StepCtx,
-        y: &[f64],
-        res: &mut [f64],
-        activity: &mut [f64],
-    ) {
-        wide(
-            #[inline(always)]
-            || residual_sized(self, ctx, y, res, Some(activity)),
-        )
     }
 
     #[inline(always)]

@@ -12,6 +12,7 @@ use crate::math::layout::Layout;
 use crate::math::layout::Scheme;
 use crate::math::scalar::{Dual, Real, DUAL_WIDTH};
 use crate::math::vec3::V3;
+use crate::math::wide::wide;
 use crate::state::State;
 
 /// Largest local block (unknowns of one kernel). A sliding clamp on cubic elements under ED
@@ -70,7 +71,10 @@ pub trait Kernel {
     ) where
         Self: Sized,
     {
-        residual_sized(self, ctx, y, res, Some(activity))
+        wide(
+            #[inline(always)]
+            || residual_sized(self, ctx, y, res, Some(activity)),
+        )
     }
     /// Adds the residual and, if asked, the exact tangent block (see [`eval_kernel`]). A
     /// kernel whose residual is a sum of small parts over subsets of its unknowns (a sliding
@@ -136,7 +140,10 @@ pub fn eval_kernel<K: Kernel>(
         "kernel block of {n} unknowns exceeds MAX_LOCAL"
     );
     match jac {
-        None => residual_sized(k, ctx, y, res, None),
+        None => wide(
+            #[inline(always)]
+            || residual_sized(k, ctx, y, res, None),
+        ),
         Some((vals, pos)) => {
             assert!(
                 n <= MAX_DUAL_LOCAL,
