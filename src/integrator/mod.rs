@@ -477,7 +477,9 @@ impl Integrator {
     /// ED's decoupled system.
     pub fn factor_tangent(&mut self, factors: Factors) -> Result<(), String> {
         self.factored_for = None;
-        debug_assert!(factors == Factors::Decoupled || self.values_exact);
+        // The tangent in hand is the kind asked for: the exact values, or the decoupled
+        // system's (assembled into its own values, the real ones then not exact).
+        debug_assert_eq!(factors == Factors::Exact, self.values_exact);
         match factors {
             Factors::Exact => {
                 self.matrix.factor()?;
