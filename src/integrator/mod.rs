@@ -9,12 +9,14 @@ mod ed_decoupled;
 mod load_response;
 mod positions;
 pub mod predictor;
+mod structure;
 
 use convergence::{inf_norm, Measure};
 use corotation::CoRotation;
 use ed_decoupled::DecoupledSystem;
 pub use load_response::LoadResponse;
 use positions::KernelPositions;
+use structure::BlockStructure;
 
 use crate::elements::{Kernel, StepCtx};
 use crate::math::layout::Layout;
@@ -134,6 +136,8 @@ pub struct Integrator {
     pub matrix: NewtonMatrix,
     /// Where each kernel's tangent block goes in `matrix.values`.
     pos: KernelPositions,
+    /// Which entries of each kernel's block the pattern holds.
+    structure: BlockStructure,
     y: Vec<f64>,
     res: Vec<f64>,
     /// Per row: the sum of the magnitudes of every kernel's contribution to it (the forces
@@ -170,6 +174,8 @@ pub struct Integrator {
     decoupled: Option<DecoupledSystem>,
     /// Factorizations of the decoupled system, over every pattern.
     decoupled_factorizations: usize,
+    /// Pivoting factorizations of the decoupled systems of earlier patterns.
+    retired_decoupled_pivoting: usize,
     factors: Factors,
     /// The decoupled factors did not serve this step (they contracted too slowly when fresh,
     /// or the step failed with them): factor the exact matrix until the step is done.
@@ -201,9 +207,48 @@ pub struct Integrator {
     streak: usize,
 }
 
+/// A Newton matrix's pattern, each kernel's block positions in it and the block structure
+/// it was built from.
+struct Pattern {
+    matrix: NewtonMatrix,
+    pos: KernelPositions,
+    structure: BlockStructure,
+}
+
+impl Pattern {
+    /// Only the structurally nonzero entries enter the pattern: less fill, faster LU.
+    fn of(sys: &System, structure: BlockStructure) -> Self {
+        let n = sys.layout.n_unknowns();
+        let (matrix, pos) =
+            NewtonMatrix::from_blocks(n, &structure.unknowns(), Some(structure.masks()));
+        Pattern {
+            matrix,
+            pos: KernelPositions::split(sys, pos),
+            structure,
+        }
+    }
+}
+
 impl Integrator {
     pub fn new(sys: &System, settings: &SimulationSettings) -> Self {
-        let mut integ = Self::with_pattern(sys, settings.dt);
+        let pattern = Pattern::of(sys, BlockStructure::probe(sys, settings.dt));
+        Self::with_settings(sys, settings, pattern)
+    }
+
+    /// A fresh integrator for the same system and settings, with this one's Newton-matrix
+    /// pattern and ordering (nothing probed or ordered again): the instant values at a
+    /// run's ends.
+    pub fn sibling(&self, sys: &System, settings: &SimulationSettings) -> Self {
+        let pattern = Pattern {
+            matrix: self.matrix.same_pattern(),
+            pos: self.pos.clone(),
+            structure: self.structure.clone(),
+        };
+        Self::with_settings(sys, settings, pattern)
+    }
+
+    fn with_settings(sys: &System, settings: &SimulationSettings, pattern: Pattern) -> Self {
+        let mut integ = Self::with_pattern(sys, pattern);
         integ.tol = settings.newton_tol;
         integ.increment_tol = settings.newton_increment_tol;
         integ.max_iter = settings.max_newton_iterations as usize;
@@ -212,45 +257,43 @@ impl Integrator {
     }
 
     /// Rebuilds the Newton matrix's pattern after a kernel's unknowns changed (a sliding
-    /// joint's window moved to the next element); the counters carry on.
+    /// joint's window moved to the next element): only that kernel's structure is probed
+    /// again. The factors in hand go with the old pattern; the counters, the predictor's
+    /// trend and what the step history taught about factors carry on.
     pub fn rebuild_pattern(&mut self, sys: &System, h: f64) {
-        let mut fresh = Self::with_pattern(sys, h);
-        fresh.tol = self.tol;
-        fresh.increment_tol = self.increment_tol;
-        fresh.max_iter = self.max_iter;
-        fresh.total_iterations = self.total_iterations;
-        fresh.pattern_misses = self.pattern_misses;
-        fresh.pattern_rebuilds = self.pattern_rebuilds + 1;
-        fresh.modified_newton = self.modified_newton;
-        fresh.solves = self.solves;
-        fresh.residual_evaluations = self.residual_evaluations;
-        fresh.matrix.numeric_factorizations += self.matrix.numeric_factorizations;
-        fresh.decoupled_factorizations = self.decoupled_factorizations;
-        fresh.decoupled_backoff = self.decoupled_backoff;
-        fresh.decoupled_misses = self.decoupled_misses;
-        fresh.matrix.orderings += self.matrix.orderings;
-        *self = fresh;
+        let fresh = Pattern::of(sys, self.structure.reprobe(sys, h));
+        let old = std::mem::replace(&mut self.matrix, fresh.matrix);
+        self.matrix.numeric_factorizations += old.numeric_factorizations;
+        self.matrix.refactorizations += old.refactorizations;
+        self.matrix.orderings += old.orderings;
+        self.structure = fresh.structure;
+        self.pos = fresh.pos;
+        if let Some(d) = self.decoupled.take() {
+            self.retired_decoupled_pivoting += d.matrix.pivoting_factorizations();
+        }
+        self.factored_for = None;
+        self.factors = Factors::Exact;
+        self.values_exact = false;
+        self.factored_this_solve = false;
+        self.corotation = CoRotation::new(sys);
+        self.served = 0;
+        self.pattern_rebuilds += 1;
     }
 
-    fn with_pattern(sys: &System, h: f64) -> Self {
-        use crate::elements::Kernel;
-        let mut blocks: Vec<&[usize]> = Vec::new();
-        blocks.extend(sys.inertias.iter().map(|k| k.unknowns()));
-        blocks.extend(sys.beams.iter().map(|k| k.unknowns()));
-        blocks.extend(sys.joints.iter().map(|k| k.unknowns()));
-        blocks.extend(sys.springs.iter().map(|k| k.unknowns()));
-        blocks.extend(sys.drives.iter().map(|k| k.unknowns()));
-        blocks.extend(sys.frictions.iter().map(|k| k.unknowns()));
-        blocks.extend(sys.loads.iter().map(|k| k.unknowns()));
-        blocks.extend(sys.line_loads.iter().map(|k| k.unknowns()));
+    fn with_pattern(
+        sys: &System,
+        Pattern {
+            matrix,
+            pos,
+            structure,
+        }: Pattern,
+    ) -> Self {
         let n = sys.layout.n_unknowns();
-        // Only the structurally nonzero entries enter the pattern: less fill, faster LU.
-        let masks = Self::block_masks(sys, h);
-        let (matrix, pos) = NewtonMatrix::from_blocks(n, &blocks, Some(&masks));
         Integrator {
             layout: sys.layout,
             matrix,
-            pos: KernelPositions::split(sys, pos),
+            pos,
+            structure,
             y: vec![0.0; n],
             res: vec![0.0; n],
             activity: vec![0.0; n],
@@ -269,6 +312,7 @@ impl Integrator {
             residual_evaluations: 0,
             decoupled: None,
             decoupled_factorizations: 0,
+            retired_decoupled_pivoting: 0,
             factors: Factors::Exact,
             exact_for_step: false,
             factored_this_solve: false,
@@ -283,75 +327,6 @@ impl Integrator {
             lifetimes: [None; 2],
             streak: 0,
         }
-    }
-
-    /// Structure of every kernel's tangent block, in kernel order (inertias, beams, joints,
-    /// springs, drives, loads, line loads): the union of the nonzeros at two generic states (nodes rotated and moving,
-    /// coordinates and multipliers nonzero), so that no entry is missed because the initial
-    /// configuration happens to be aligned with the axes.
-    pub fn block_masks(sys: &System, h: f64) -> Vec<Vec<bool>> {
-        use crate::elements::Kernel;
-        use crate::math::rotation::exp_map;
-        let n = sys.layout.n_unknowns();
-        let wiggle = |k: f64| 0.37 + (k * 12.9898).sin();
-        let mut masks: Vec<Vec<bool>> = Vec::new();
-        // An EP layout also serves static solves, whose tangents differ (e.g. a dead moment
-        // acts on the f-triad): the pattern covers both.
-        let modes: &[Option<f64>] = if sys.layout.ed() {
-            &[None]
-        } else {
-            &[None, Some(0.7)]
-        };
-        for (trial, &statics) in (1..=2).flat_map(|t| modes.iter().map(move |m| (t, m))) {
-            let t = trial as f64;
-            let mut state = sys.initial.clone();
-            for (a, node) in state.nodes.iter_mut().enumerate() {
-                let k = 10.0 * t + a as f64;
-                let tilt = V3([wiggle(k), wiggle(k + 0.1), wiggle(k + 0.2)]);
-                node.r = exp_map(&tilt.scale_f(0.3)).mul_m(&node.r);
-                node.x += tilt.scale_f(0.01 * sys.length_ref);
-                node.v += tilt.scale_f(0.1);
-                node.w += V3([wiggle(k + 0.3), wiggle(k + 0.4), wiggle(k + 0.5)]);
-            }
-            for (c, q) in state.coords.iter_mut().enumerate() {
-                *q += 0.1 * wiggle(t + c as f64 + 0.6);
-            }
-            for (c, q) in state.coord_rates.iter_mut().enumerate() {
-                *q += wiggle(t + c as f64 + 0.7);
-            }
-            let ctx = StepCtx {
-                layout: sys.layout,
-                h,
-                t_i: 0.0,
-                t_f: h,
-                s: Self::scaling(sys, h),
-                state: &state,
-                gravity: sys.gravity,
-                statics,
-            };
-            let y: Vec<f64> = (0..n)
-                .map(|i| 1e-2 * wiggle(t * 100.0 + i as f64))
-                .collect();
-            let mut all: Vec<Vec<bool>> = Vec::new();
-            all.extend(sys.inertias.iter().map(|k| k.structure(&ctx, &y)));
-            all.extend(sys.beams.iter().map(|k| k.structure(&ctx, &y)));
-            all.extend(sys.joints.iter().map(|k| k.structure(&ctx, &y)));
-            all.extend(sys.springs.iter().map(|k| k.structure(&ctx, &y)));
-            all.extend(sys.drives.iter().map(|k| k.structure(&ctx, &y)));
-            all.extend(sys.frictions.iter().map(|k| k.structure(&ctx, &y)));
-            all.extend(sys.loads.iter().map(|k| k.structure(&ctx, &y)));
-            all.extend(sys.line_loads.iter().map(|k| k.structure(&ctx, &y)));
-            if masks.is_empty() {
-                masks = all;
-            } else {
-                for (m, a) in masks.iter_mut().zip(all) {
-                    for (x, b) in m.iter_mut().zip(a) {
-                        *x |= b;
-                    }
-                }
-            }
-        }
-        masks
     }
 
     /// Predictor: each node's velocity turning with its angular velocity (see [`predictor`]),
@@ -438,6 +413,7 @@ impl Integrator {
         let decoupled = self.decoupled.as_ref();
         m.numeric_factorizations - m.refactorizations
             + decoupled.map_or(0, |d| d.matrix.pivoting_factorizations())
+            + self.retired_decoupled_pivoting
     }
 
     /// The factors a fresh tangent gets: under ED with modified Newton, those of the
@@ -1456,6 +1432,74 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    /// A sibling integrator (the instant values at a run's ends) takes this one's pattern
+    /// as is and steps exactly as a freshly probed one: same pattern, same column order,
+    /// the same step to the bit (a sliding joint's model after a rebuild, EP and ED).
+    #[test]
+    fn a_sibling_steps_as_a_freshly_built_integrator() {
+        let path = format!("{}/examples/free_collar.yaml", env!("CARGO_MANIFEST_DIR"));
+        let model = crate::compile::from_yaml_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+        for scheme in [Scheme::Ep, Scheme::Ed] {
+            let sys = crate::compile::compile(&model, scheme).unwrap();
+            let settings = &model.simulation;
+            let mut first = Integrator::new(&sys, settings);
+            first.rebuild_pattern(&sys, settings.dt);
+            assert_eq!(first.structure.probed, 0, "nothing moved, nothing probed");
+            let sibling = first.sibling(&sys, settings);
+            let fresh = Integrator::new(&sys, settings);
+            assert_eq!(sibling.matrix.pattern(), fresh.matrix.pattern());
+            assert_eq!(sibling.matrix.col_perm(), fresh.matrix.col_perm());
+            assert_eq!(sibling.matrix.orderings, 0, "{scheme:?}: ordered again");
+            let state = sys.initial.clone();
+            let [(sibling_end, sibling_iterations), (fresh_end, fresh_iterations)] =
+                [sibling, fresh].map(|mut integ| {
+                    let (end, report) = integ.step(&sys, &state, 1e-3).unwrap();
+                    (end, report.iterations)
+                });
+            assert_eq!(sibling_iterations, fresh_iterations, "{scheme:?}");
+            // From the same start through the same pattern and order: equal to the bit.
+            for (a, (s, f)) in sibling_end.nodes.iter().zip(&fresh_end.nodes).enumerate() {
+                assert!(
+                    s.x == f.x && s.v == f.v && s.w == f.w,
+                    "{scheme:?}: node {a}"
+                );
+            }
+        }
+    }
+
+    /// A rebuilt pattern keeps the counts of what was factored before it: numeric,
+    /// pivoting (of the exact and the decoupled matrices) and orderings, so run statistics
+    /// stay whole over a sliding joint's window moves (EP and ED, modified Newton).
+    #[test]
+    fn a_rebuild_keeps_the_factorization_counts() {
+        let path = format!("{}/examples/free_collar.yaml", env!("CARGO_MANIFEST_DIR"));
+        let model = crate::compile::from_yaml_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+        for scheme in [Scheme::Ep, Scheme::Ed] {
+            let sys = crate::compile::compile(&model, scheme).unwrap();
+            let mut integ = Integrator::new(&sys, &model.simulation);
+            let mut state = sys.initial.clone();
+            for _ in 0..20 {
+                state = integ.step(&sys, &state, 5e-3).unwrap().0;
+            }
+            let counts = |i: &Integrator| {
+                [
+                    i.factorizations(),
+                    i.pivoting_factorizations(),
+                    i.matrix.orderings,
+                ]
+            };
+            let before = counts(&integ);
+            assert!(before[0] > before[1], "{scheme:?}: some refactorizations");
+            integ.rebuild_pattern(&sys, model.simulation.dt);
+            assert_eq!(counts(&integ)[..2], before[..2], "{scheme:?}");
+            assert_eq!(
+                counts(&integ)[2],
+                before[2] + 1,
+                "{scheme:?}: one more ordering"
+            );
         }
     }
 }

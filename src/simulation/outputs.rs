@@ -131,7 +131,7 @@ impl Simulation {
         }
         let step = self.h_next.min(self.settings.dt_max());
         let h = instant_step(&self.system, &self.state, step);
-        let mut integrator = crate::integrator::Integrator::new(&self.system, &self.settings);
+        let mut integrator = self.integrator.sibling(&self.system, &self.settings);
         // A step's end velocities meet the velocity constraints only to the scheme's
         // accuracy; over so short a step the difference would take an impulse.
         let mut instant = self.state.clone();

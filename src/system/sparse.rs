@@ -147,6 +147,30 @@ impl<T: Entry> NewtonMatrix<T> {
         m
     }
 
+    /// A matrix of this one's pattern and column order, all values zero, no factors yet.
+    pub fn same_pattern(&self) -> Self {
+        NewtonMatrix {
+            n: self.n,
+            col_ptr: self.col_ptr.clone(),
+            row_idx: self.row_idx.clone(),
+            values: vec![T::default(); self.values.len()],
+            diagonal: self.diagonal.clone(),
+            col_perm: self.col_perm.clone(),
+            col_perm_inv: self.col_perm_inv.clone(),
+            row_perm: vec![0; self.n],
+            row_perm_inv: vec![0; self.n],
+            pivoting: SimplicialLu::new(),
+            factors: Box::default(),
+            pivots: false,
+            scratch: MemBuffer::new(factorize_simplicial_numeric_lu_scratch::<usize, T>(
+                self.n, self.n,
+            )),
+            numeric_factorizations: 0,
+            refactorizations: 0,
+            orderings: 0,
+        }
+    }
+
     /// Orders the columns by reverse Cuthill–McKee and forgets the pivots. Multibody systems
     /// are chains and trees of small blocks, so a narrow band keeps partial pivoting from
     /// filling the factors (64-link chain under ED: 67k factor entries with RCM, 324k with
@@ -167,6 +191,11 @@ impl<T: Entry> NewtonMatrix<T> {
 
     pub fn nnz(&self) -> usize {
         self.row_idx.len()
+    }
+
+    /// The column order (reverse Cuthill–McKee).
+    pub fn col_perm(&self) -> &[usize] {
+        &self.col_perm
     }
 
     pub fn clear(&mut self) {
