@@ -341,22 +341,8 @@ mod tests {
             "/examples/beam_pendulum.yaml"
         ))
         .unwrap();
-        let collar = "
-nodes:
-  - {name: collar, position: [1.3, 0, 0]}
-bodies:
-  - {name: collar_mass, node: collar, mass: 2.0, inertia: [0.01, 0.02, 0.03]}
-beams:
-  - name: beam
-    start: [0, 0, 0]
-    end: [2.4, 0, 0]
-    elements: 6
-    order: 3
-    section: {ea: 1.0e5, ga2: 5.0e4, ga3: 5.0e4, gj: 400, ei2: 500, ei3: 500, m: 1.6, i22: 1.0e-3, i33: 1.0e-3}
-joints:
-  - {type: sliding, name: slider, beam: beam, follower: collar, eta: 0.5417}
-";
-        for text in [pendulum.as_str(), collar] {
+        let collar = crate::testing::collar_on_free_beam_yaml(0.5417);
+        for text in [pendulum.as_str(), collar.as_str()] {
             decoupled_update_is_exact_at_rest(text);
         }
     }

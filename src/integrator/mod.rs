@@ -1435,13 +1435,18 @@ mod tests {
         }
     }
 
+    /// The free-collar example: a collar on a sliding joint along a free beam.
+    fn free_collar() -> crate::model::Model {
+        let path = format!("{}/examples/free_collar.yaml", env!("CARGO_MANIFEST_DIR"));
+        crate::compile::from_yaml_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+    }
+
     /// A sibling integrator (the instant values at a run's ends) takes this one's pattern
     /// as is and steps exactly as a freshly probed one: same pattern, same column order,
     /// the same step to the bit (a sliding joint's model after a rebuild, EP and ED).
     #[test]
     fn a_sibling_steps_as_a_freshly_built_integrator() {
-        let path = format!("{}/examples/free_collar.yaml", env!("CARGO_MANIFEST_DIR"));
-        let model = crate::compile::from_yaml_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+        let model = free_collar();
         for scheme in [Scheme::Ep, Scheme::Ed] {
             let sys = crate::compile::compile(&model, scheme).unwrap();
             let settings = &model.simulation;
@@ -1475,8 +1480,7 @@ mod tests {
     /// stay whole over a sliding joint's window moves (EP and ED, modified Newton).
     #[test]
     fn a_rebuild_keeps_the_factorization_counts() {
-        let path = format!("{}/examples/free_collar.yaml", env!("CARGO_MANIFEST_DIR"));
-        let model = crate::compile::from_yaml_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+        let model = free_collar();
         for scheme in [Scheme::Ep, Scheme::Ed] {
             let sys = crate::compile::compile(&model, scheme).unwrap();
             let mut integ = Integrator::new(&sys, &model.simulation);

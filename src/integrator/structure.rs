@@ -146,29 +146,14 @@ mod tests {
     use crate::joints::Joint;
     use crate::math::layout::Scheme;
 
-    const COLLAR: &str = "
-nodes:
-  - {name: collar, position: [0.3, 0, 0]}
-bodies:
-  - {name: collar_mass, node: collar, mass: 2.0, inertia: [0.01, 0.02, 0.03]}
-beams:
-  - name: beam
-    start: [0, 0, 0]
-    end: [2.4, 0, 0]
-    elements: 6
-    order: 3
-    section: {ea: 1.0e5, ga2: 5.0e4, ga3: 5.0e4, gj: 400, ei2: 500, ei3: 500, m: 1.6, i22: 1.0e-3, i33: 1.0e-3}
-joints:
-  - {type: sliding, name: slider, beam: beam, follower: collar, eta: 0.125}
-";
-
     /// After a sliding joint's window moves, the structure kept from before and completed
     /// by probing only the moved kernel is the structure probed afresh (a kernel whose mask
     /// depended on more than its unknowns, or a reuse off by one kernel, would break it),
     /// under both schemes.
     #[test]
     fn reprobing_a_moved_window_gives_the_fresh_structure() {
-        let model = crate::compile::from_yaml_str(COLLAR).unwrap();
+        let yaml = crate::testing::collar_on_free_beam_yaml(0.125);
+        let model = crate::compile::from_yaml_str(&yaml).unwrap();
         for scheme in [Scheme::Ep, Scheme::Ed] {
             let mut sys = crate::compile::compile(&model, scheme).unwrap();
             let h = 1e-3;
