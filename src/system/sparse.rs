@@ -115,7 +115,6 @@ impl<T: Entry> NewtonMatrix<T> {
     /// A matrix of the given pattern (rows sorted and unique in each column, every diagonal
     /// entry present), all values zero, with its factorization analysed.
     pub fn from_pattern(n: usize, col_ptr: Vec<usize>, row_idx: Vec<usize>) -> Self {
-        let nnz = row_idx.len();
         let diagonal = (0..n)
             .map(|j| {
                 let col = &row_idx[col_ptr[j]..col_ptr[j + 1]];
@@ -125,46 +124,46 @@ impl<T: Entry> NewtonMatrix<T> {
                         .expect("every diagonal entry in the pattern")
             })
             .collect();
-        let mut m = NewtonMatrix {
-            n,
-            col_ptr,
-            row_idx,
-            values: vec![T::default(); nnz + 1],
-            diagonal,
-            col_perm: vec![],
-            col_perm_inv: vec![],
-            row_perm: vec![0; n],
-            row_perm_inv: vec![0; n],
-            pivoting: SimplicialLu::new(),
-            factors: Box::default(),
-            pivots: false,
-            scratch: MemBuffer::new(factorize_simplicial_numeric_lu_scratch::<usize, T>(n, n)),
-            numeric_factorizations: 0,
-            refactorizations: 0,
-            orderings: 0,
-        };
+        let mut m = Self::unfactored(n, col_ptr, row_idx, diagonal, (vec![], vec![]));
         m.order_columns();
         m
     }
 
     /// A matrix of this one's pattern and column order, all values zero, no factors yet.
     pub fn same_pattern(&self) -> Self {
+        Self::unfactored(
+            self.n,
+            self.col_ptr.clone(),
+            self.row_idx.clone(),
+            self.diagonal.clone(),
+            (self.col_perm.clone(), self.col_perm_inv.clone()),
+        )
+    }
+
+    /// A matrix of the given pattern, diagonal positions and column order (and its
+    /// inverse), all values zero, no pivots or factors, no counts.
+    fn unfactored(
+        n: usize,
+        col_ptr: Vec<usize>,
+        row_idx: Vec<usize>,
+        diagonal: Vec<usize>,
+        (col_perm, col_perm_inv): (Vec<usize>, Vec<usize>),
+    ) -> Self {
+        let nnz = row_idx.len();
         NewtonMatrix {
-            n: self.n,
-            col_ptr: self.col_ptr.clone(),
-            row_idx: self.row_idx.clone(),
-            values: vec![T::default(); self.values.len()],
-            diagonal: self.diagonal.clone(),
-            col_perm: self.col_perm.clone(),
-            col_perm_inv: self.col_perm_inv.clone(),
-            row_perm: vec![0; self.n],
-            row_perm_inv: vec![0; self.n],
+            n,
+            col_ptr,
+            row_idx,
+            values: vec![T::default(); nnz + 1],
+            diagonal,
+            col_perm,
+            col_perm_inv,
+            row_perm: vec![0; n],
+            row_perm_inv: vec![0; n],
             pivoting: SimplicialLu::new(),
             factors: Box::default(),
             pivots: false,
-            scratch: MemBuffer::new(factorize_simplicial_numeric_lu_scratch::<usize, T>(
-                self.n, self.n,
-            )),
+            scratch: MemBuffer::new(factorize_simplicial_numeric_lu_scratch::<usize, T>(n, n)),
             numeric_factorizations: 0,
             refactorizations: 0,
             orderings: 0,
