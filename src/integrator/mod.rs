@@ -866,9 +866,8 @@ impl Integrator {
     }
 
     /// Whether the factors in hand, though they still converge, cost more per step than fresh
-    /// ones would ([`renewal`]; their refresh cost from the matrix they factor): the next step
-    /// factors afresh whatever its size.
-    pub fn renewal_due(&self) -> bool {
+    /// ones would ([`renewal`]; their refresh cost from the matrix they factor).
+    fn renewal_due(&self) -> bool {
         let decoupled = self.factors == Factors::Decoupled;
         let cost = renewal::refresh_cost(self.matrix.nnz(), self.y.len(), decoupled);
         self.served.due(cost)

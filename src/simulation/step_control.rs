@@ -236,11 +236,7 @@ impl Simulation {
                         self.accept(state, report, h);
                         self.stats.steps_set_by[by as usize] += 1;
                         let factor = self.controller.accepted(e, &self.settings);
-                        // Factors due for renewal are replaced anyway: the step may take
-                        // the size the controller asks.
-                        let keep = self.settings.modified_newton
-                            && Controller::holds(e, factor)
-                            && !self.integrator.renewal_due();
+                        let keep = self.settings.modified_newton && Controller::holds(e, factor);
                         self.h_next = if keep {
                             h
                         } else {
@@ -441,23 +437,6 @@ pub(super) fn rotation_between(
 #[cfg(test)]
 mod tests {
     use super::cayley_excess;
-    use crate::math::layout::Scheme;
-    use crate::simulation::Simulation;
-
-    /// Factors due for renewal are replaced at the next step whatever its size, so the
-    /// controller does not hold h to keep them: the four-bar linkage under ED with the default
-    /// adaptive steps (tolerance 1e-4, first step 1 ms) covers 2 s in 480 steps where holding
-    /// them took 510 (2177 iterations against 2331); the bound sits between the two.
-    #[test]
-    fn steps_are_not_held_for_factors_due_for_renewal() {
-        let path = format!("{}/examples/four_bar.yaml", env!("CARGO_MANIFEST_DIR"));
-        let mut model =
-            crate::compile::from_yaml_str(&std::fs::read_to_string(path).unwrap()).unwrap();
-        model.simulation.dt = 1e-3;
-        let mut sim = Simulation::with_scheme(&model, Scheme::Ed).unwrap();
-        sim.advance_to(2.0).unwrap();
-        assert!(sim.stats.steps <= 495, "{} steps", sim.stats.steps);
-    }
 
     #[test]
     fn cayley_excess_is_tan_x_over_x_less_one_across_its_series_switch() {
