@@ -105,16 +105,16 @@ impl<T: Real> ColumnMap<'_, T> {
     /// momentum rows and `−(B_i + B_f)ᵀ l` on the jump rows (each `Bᵀ l` formed once).
     fn add_jump_forces<const NC: usize>(
         &self,
-        b_i: &Grad<T, NC>,
+        b_i: &Grad<f64, NC>,
         b_f: &Grad<T, NC>,
         l: &[T],
         out: &mut [T],
     ) {
         let mut gi = [T::zero(); NC];
         let mut gf = [T::zero(); NC];
-        for c in 0..NC {
-            for r in 0..self.n_rows {
-                gi[c] += b_i[r][c] * l[r];
+        for r in 0..self.n_rows {
+            for c in 0..NC {
+                gi[c] += l[r] * b_i[r][c];
                 gf[c] += b_f[r][c] * l[r];
             }
         }
@@ -134,45 +134,43 @@ impl<T: Real> ColumnMap<'_, T> {
         }
     }
 
-    /// `B V` for the jump (`at = Start`) or end (`at = End`) velocities of the local block.
-    fn apply_rate<const NC: usize>(
+    /// ED's velocity-level j-condition `B(q_i) V_j − B(q_f) V_f` of the local block, in one
+    /// pass over its nodes and coordinates (`V_f = 2Δ/h − V_j`, angular velocities spatial).
+    fn jump_condition<const NC: usize>(
         &self,
         ctx: &StepCtx,
-        b: &Grad<T, NC>,
+        b_i: &Grad<f64, NC>,
+        b_f: &Grad<T, NC>,
         y: &[T],
-        at: At,
         out: &mut [T],
     ) {
-        let h = ctx.h;
-        let mut acc = [T::zero(); MAX_ROWS];
+        let inv_h = 1.0 / ctx.h;
+        for o in out.iter_mut().take(self.n_rows) {
+            *o = T::zero();
+        }
         for n in self.nodes {
             let j = n.jump.expect("ED layout");
-            let (vj, wj) = (v3(y, j).scale_f(1.0 / h), v3(y, j + 3).scale_f(1.0 / h));
-            let (v, w) = if at == At::Start {
-                (vj, n.r_i.mul_v(&wj))
-            } else {
-                let vf = v3(y, n.delta).scale_f(2.0 / h) - vj;
-                let wf = v3(y, n.delta + 3).scale_f(2.0 / h) - wj;
-                (vf, n.r_f.mul_v(&wf))
-            };
-            for (r, a) in acc.iter_mut().enumerate().take(self.n_rows) {
+            let (vj, wj) = (v3(y, j).scale_f(inv_h), v3(y, j + 3).scale_f(inv_h));
+            let vf = v3(y, n.delta).scale_f(2.0 * inv_h) - vj;
+            let wf = v3(y, n.delta + 3).scale_f(2.0 * inv_h) - wj;
+            let (wj, wf) = (n.r_i.mul_v(&wj), n.r_f.mul_v(&wf));
+            for (r, o) in out.iter_mut().enumerate().take(self.n_rows) {
+                let (bi, bf) = (&b_i[r][n.col..n.col + 6], &b_f[r][n.col..n.col + 6]);
+                let mut acc = *o;
                 for c in 0..3 {
-                    *a += b[r][n.col + c] * v.0[c] + b[r][n.col + 3 + c] * w.0[c];
+                    acc += vj.0[c] * bi[c] + wj.0[c] * bi[3 + c];
+                    acc -= bf[c] * vf.0[c] + bf[3 + c] * wf.0[c];
                 }
+                *o = acc;
             }
         }
         for c in self.coords {
-            let qj = y[c.slot + 1] / h;
-            let q = if at == At::Start {
-                qj
-            } else {
-                y[c.slot] * (2.0 / h) - qj
-            };
-            for (r, a) in acc.iter_mut().enumerate().take(self.n_rows) {
-                *a += b[r][c.col] * q;
+            let qj = y[c.slot + 1] * inv_h;
+            let qf = y[c.slot] * (2.0 * inv_h) - qj;
+            for (r, o) in out.iter_mut().enumerate().take(self.n_rows) {
+                *o += qj * b_i[r][c.col] - b_f[r][c.col] * qf;
             }
         }
-        out[..self.n_rows].copy_from_slice(&acc[..self.n_rows]);
     }
 }
 
@@ -182,8 +180,9 @@ pub struct ConstraintTerms<'a, T, const NC: usize> {
     pub c_f: &'a [T],
     /// Time step: the exact discrete gradient `B^D`; statics: `B(q_f)`.
     pub b: &'a Grad<T, NC>,
-    /// ED only: the rate operators `B(q_i)` and `B(q_f)`.
-    pub rates: Option<(&'a Grad<T, NC>, &'a Grad<T, NC>)>,
+    /// ED only: the rate operators `B(q_i)` and `B(q_f)` (`B(q_i)` a constant of the step,
+    /// so plain numbers: no derivatives to carry through a tangent's dual pass).
+    pub rates: Option<(&'a Grad<f64, NC>, &'a Grad<T, NC>)>,
 }
 
 /// Adds the constraint's equations (EP, ED or static, after `ctx`) to the local residual.
@@ -213,12 +212,10 @@ pub fn add_constraint_equations<T: Real, const NC: usize>(
     // −P_f ∋ (1/12)(B_f − B_i)ᵀ λ_d ; −P_j/6 ∋ −(1/12)(B_i + B_f)ᵀ λ_d.
     map.add_jump_forces(b_i, b_f, &l[..n], res);
     // Velocity-level j-condition: B(q_i) V_j − B(q_f) V_f = 0.
-    let mut ci = [T::zero(); MAX_ROWS];
-    let mut cf = [T::zero(); MAX_ROWS];
-    map.apply_rate(ctx, b_i, y, At::Start, &mut ci);
-    map.apply_rate(ctx, b_f, y, At::End, &mut cf);
+    let mut cj = [T::zero(); MAX_ROWS];
+    map.jump_condition(ctx, b_i, b_f, y, &mut cj);
     for r in 0..n {
-        res[map.mult + 2 * r + 1] += (ci[r] - cf[r]) * (ctx.s * ctx.h);
+        res[map.mult + 2 * r + 1] += cj[r] * (ctx.s * ctx.h);
     }
 }
 
@@ -379,13 +376,11 @@ fn split_pass<K: StepEquations<NC>, const NC: usize, const W: usize, const M: us
             n_rows: map.n_rows,
         };
         let b = grad_values(terms.b);
-        let rates = terms
-            .rates
-            .map(|(bi, bf)| (grad_values(bi), grad_values(bf)));
+        let b_f = terms.rates.map(|(_, bf)| grad_values(bf));
         let terms_re = ConstraintTerms {
             c_f: &[],
             b: &b,
-            rates: rates.as_ref().map(|(bi, bf)| (bi, bf)),
+            rates: terms.rates.zip(b_f.as_ref()).map(|((bi, _), bf)| (bi, bf)),
         };
         add_linear_columns(ctx, &map_re, &terms_re, n, vals, pos);
         if k.translations_linear() {

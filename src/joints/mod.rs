@@ -639,9 +639,14 @@ impl JointKernel {
             q[c] = state.coords[g];
         }
         let s = JointState::new([x0, x1], [r0, r1], q, self.law.attachments());
+        (self.rate_rows_at(&s), s)
+    }
+
+    /// The rate operator `B(q)` at joint state `s`.
+    fn rate_rows_at<T: Real>(&self, s: &JointState<T>) -> Rows<T> {
         let mut b = zero_rows();
-        self.law.rate(&s, &mut b);
-        (b, s)
+        self.law.rate(s, &mut b);
+        b
     }
 }
 
@@ -723,25 +728,20 @@ impl StepEquations<NCOL> for JointKernel {
         } else {
             self.law.discrete_gradient(&si, &sf, &mut b);
         }
-        // Only ED needs the rate operators (buffers of duals are costly to zero).
-        let rates = ctx.ed().then(|| {
-            // B(q_i) is a constant of the step: evaluated in f64.
-            let mut bi = zero_rows::<f64>();
-            self.law.rate(&si64, &mut bi);
-            let mut b_i = zero_rows::<T>();
-            for (row, src) in b_i.iter_mut().zip(&bi).take(n) {
-                for (v, x) in row.iter_mut().zip(src) {
-                    *v = T::cst(*x);
-                }
-            }
-            let mut b_f = zero_rows::<T>();
-            self.law.rate(&sf, &mut b_f);
-            (b_i, b_f)
-        });
+        // Only ED needs the rate operators (buffers of duals are costly to zero); they are
+        // built in place, not moved out of a closure. B(q_i) is a constant of the step.
+        let (b_i, b_f);
+        let rates = if ctx.ed() {
+            b_i = self.rate_rows_at(&si64);
+            b_f = self.rate_rows_at(&sf);
+            Some((&b_i, &b_f))
+        } else {
+            None
+        };
         let terms = ConstraintTerms {
             c_f: &c[..n],
             b: &b,
-            rates: rates.as_ref().map(|(b_i, b_f)| (b_i, b_f)),
+            rates,
         };
         f(&map, &terms)
     }

@@ -166,7 +166,8 @@ impl<T: Real> WindowWeights<T> {
 struct Share<T> {
     c_f: [T; MAX_ROWS],
     b: Grad<T, SHARE_NC>,
-    rates: Option<(Grad<T, SHARE_NC>, Grad<T, SHARE_NC>)>,
+    /// ED: `B(q_i)` (a constant of the step, plain numbers) and `B(q_f)`.
+    rates: Option<(Grad<f64, SHARE_NC>, Grad<T, SHARE_NC>)>,
 }
 
 impl<T: Real> Share<T> {
@@ -315,7 +316,7 @@ impl StepEquations<SHARE_NC> for NodeShare<'_> {
 struct Terms<T> {
     c_f: [T; MAX_ROWS],
     b: Grad<T, NC>,
-    rates: Option<(Grad<T, NC>, Grad<T, NC>)>,
+    rates: Option<(Grad<f64, NC>, Grad<T, NC>)>,
     nodes: [Option<NodeColumns<T>>; MAX_WINDOW_NODES + 1],
 }
 
@@ -566,15 +567,20 @@ impl SlidingJoint {
             }
         }
         if let Some((b_i, b_f)) = share.rates.as_mut() {
-            // Only the law's rows are read back.
+            // Only the law's rows are read back. The start state, its weights and value do
+            // not depend on the unknowns: B(q_i) is their value part.
             pair[..n].fill([T::zero(); NCOL]);
             self.law.rate(&si, &mut pair);
-            Self::blend(b_i, &pair, w.hi[j], n);
+            for r in 0..n {
+                for c in 0..12 {
+                    b_i[r][c] = (pair[r][c] * w.hi[j]).re();
+                }
+                b_i[r][SHARE_ZETA] = (w.dhi[j] * gi[r]).re();
+            }
             pair[..n].fill([T::zero(); NCOL]);
             self.law.rate(&sf, &mut pair);
             Self::blend(b_f, &pair, w.hf[j], n);
             for r in 0..n {
-                b_i[r][SHARE_ZETA] = w.dhi[j] * gi[r];
                 b_f[r][SHARE_ZETA] = w.dhf[j] * gf[r];
             }
         }
