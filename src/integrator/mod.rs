@@ -1252,15 +1252,17 @@ impl Integrator {
         let state = self.end_state(sys, ctx, history);
         self.account_energy(sys, ctx, strain_jumps, &mut report);
         let y = &self.y;
-        report.max_violation = sys
-            .joints
-            .iter()
-            .flat_map(|j| {
-                let v = j.violation(ctx, y);
-                v.into_iter().take(j.n_rows())
-            })
-            .fold(0.0f64, |m, v| m.max(v.abs()));
-        report.reactions = sys.joints.iter().map(|j| j.reaction(ctx, y)).collect();
+        // Each joint's values, work and reaction from one evaluation.
+        report.max_violation = 0.0;
+        report.constraint_work = 0.0;
+        report.reactions = Vec::with_capacity(sys.joints.len());
+        for j in &sys.joints {
+            let outcome = j.step_outcome(ctx, y);
+            let violation = outcome.values.iter().take(j.n_rows());
+            report.max_violation = violation.fold(report.max_violation, |m, v| m.max(v.abs()));
+            report.constraint_work += outcome.work;
+            report.reactions.push(outcome.reaction);
+        }
         report.path_rates = sys
             .joints
             .iter()
@@ -1338,9 +1340,10 @@ impl Integrator {
     }
 
     /// The step's energy bookkeeping (ed-scheme-notes §3.4): `E_f − E_i = W_drive + W_ext +
-    /// W_damp + W_friction − D` (W_damp: joint dampers and the beams' structural damping), and
-    /// the constraint forces' work (zero to round-off). `strain_jumps`: the beams' part of
-    /// ED's numerical dissipation ([`Self::history_f`]).
+    /// W_damp + W_friction − D` (W_damp: joint dampers and the beams' structural damping; the
+    /// constraint forces' work, zero to round-off, comes with the joints' other step outcomes
+    /// in [`Self::commit`]). `strain_jumps`: the beams' part of ED's numerical dissipation
+    /// ([`Self::history_f`]).
     fn account_energy(
         &self,
         sys: &System,
@@ -1387,7 +1390,6 @@ impl Integrator {
             report.jump_energies = d;
             report.numerical_dissipation = d.iter().sum();
         }
-        report.constraint_work = sys.joints.iter().map(|j| j.step_work(ctx, y)).sum();
         report.frictions = sys.frictions.iter().map(|f| f.step(ctx, y)).collect();
         report.friction_work = report.frictions.iter().map(|f| f.work).sum();
     }

@@ -272,17 +272,9 @@ impl Joint {
             Joint::Pair(_) => None,
         }
     }
-    /// Work of the constraint forces over a converged step (zero to round-off).
-    pub fn step_work(&self, ctx: &StepCtx, y: &[f64]) -> f64 {
-        each_joint!(self, j => j.step_work(ctx, y))
-    }
-    /// Constraint values at the end of a converged step.
-    pub fn violation(&self, ctx: &StepCtx, y: &[f64]) -> [f64; MAX_ROWS] {
-        each_joint!(self, j => j.violation(ctx, y))
-    }
-    /// Force and moment on node2 (the follower) at the joint point, and the joint frame.
-    pub fn reaction(&self, ctx: &StepCtx, y: &[f64]) -> (V3<f64>, V3<f64>, M3<f64>) {
-        each_joint!(self, j => j.reaction(ctx, y))
+    /// What the converged step at unknowns `y` tells of the joint (see [`JointStep`]).
+    pub fn step_outcome(&self, ctx: &StepCtx, y: &[f64]) -> JointStep {
+        each_joint!(self, j => j.step_outcome(ctx, y))
     }
     pub fn values_at(&self, state: &crate::state::State) -> [f64; MAX_ROWS] {
         each_joint!(self, j => j.values_at(state))
@@ -355,6 +347,19 @@ pub struct JointKernel {
     mult_slot: usize,
     /// Slots per coordinate and per multiplier: 2 under ED (the jump, λ_d follow), else 1.
     per: usize,
+}
+
+/// What a converged step tells of a joint, from one evaluation of its equations.
+#[derive(Clone, Copy, Debug)]
+pub struct JointStep {
+    /// Constraint values `C` at the end of the step (its first `n_rows` entries).
+    pub values: [f64; MAX_ROWS],
+    /// Work of the constraint forces over the step, `λ·(B^D Δ) = λ·(C_f − C_i)`: zero to
+    /// round-off when the constraints hold.
+    pub work: f64,
+    /// Force and moment (N, N·m, inertial) on node2 — the follower — at the joint point,
+    /// step averages, and the joint frame they are reported in.
+    pub reaction: (V3<f64>, V3<f64>, M3<f64>),
 }
 
 fn zero_rows<T: Real>() -> Rows<T> {
@@ -516,23 +521,75 @@ impl JointKernel {
         (blocks, nb, coords)
     }
 
-    /// Reaction on node2's side at the attachment point after a converged step: force and
-    /// moment about the joint point (inertial frame), from the discrete constraint forces,
-    /// and the joint frame on node2's side at the end of the step.
-    pub fn reaction(&self, ctx: &StepCtx, y: &[f64]) -> (V3<f64>, V3<f64>, M3<f64>) {
-        let at2 = self.law.attachments()[1];
-        let attach2 = &at2.offset;
+    /// What a converged step tells of the joint (see [`JointStep`]), from one evaluation of
+    /// its start and end states and its discrete gradient.
+    pub fn step_outcome(&self, ctx: &StepCtx, y: &[f64]) -> JointStep {
         let buf = self.gather(y);
         let yl = &buf[..self.unknowns.len()];
         let si = self.state_i(ctx);
-        let (sf, _) = self.state_f(&si, &si, yl);
-        let mut b = zero_rows::<f64>();
-        if ctx.is_static() {
-            self.law.rate(&sf, &mut b);
-        } else {
-            self.law.discrete_gradient(&si, &sf, &mut b);
-        }
+        let (sf, rs) = self.state_f(&si, &si, yl);
+        let mut values = [0.0; MAX_ROWS];
+        self.law.value(&sf, &mut values);
+        let mut bd = zero_rows::<f64>();
+        self.law.discrete_gradient(&si, &sf, &mut bd);
         let lam = self.multipliers(ctx, yl, false);
+        let work = self.gradient_work(&bd, &lam, &si, &sf, &rs, yl);
+        // Statics: the forces of B(q_f) in the end frame; a step's: of B^D, step averages in
+        // the mid-step frame.
+        let reaction = if ctx.is_static() {
+            self.reaction(&self.rate_rows_at(&sf), &lam, &sf, sf.r[1])
+        } else {
+            let mid = crate::math::rotation::orthonormalize(&(si.r[1] + sf.r[1]).scale_f(0.5));
+            self.reaction(&bd, &lam, &sf, mid)
+        };
+        JointStep {
+            values,
+            work,
+            reaction,
+        }
+    }
+
+    /// The work `λ·(B^D Δ)` of the constraint forces over the step (`Δ` with the spatial
+    /// rotation increments `R_i r` and the coordinates' increments).
+    fn gradient_work(
+        &self,
+        bd: &Rows<f64>,
+        lam: &[f64; MAX_ROWS],
+        si: &JointState<f64>,
+        sf: &JointState<f64>,
+        rs: &[V3<f64>; 2],
+        yl: &[f64],
+    ) -> f64 {
+        let mut work = 0.0;
+        for r in 0..self.n_rows() {
+            let mut bd_r = 0.0;
+            for k in 0..2 {
+                if let Some(d) = self.slots[k].delta {
+                    let rho = si.r[k].mul_v(&rs[k]);
+                    for c in 0..3 {
+                        bd_r += bd[r][6 * k + c] * yl[d + c] + bd[r][6 * k + 3 + c] * rho.0[c];
+                    }
+                }
+            }
+            for c in 0..self.coords.len() {
+                bd_r += bd[r][12 + c] * (sf.q[c] - si.q[c]);
+            }
+            work += lam[r] * bd_r;
+        }
+        work
+    }
+
+    /// The reaction `−bᵀλ` on node2's side as force and moment about the joint point at the
+    /// end state `sf` (inertial), and the joint frame on node2's side when node2 has the
+    /// rotation `r2`.
+    fn reaction(
+        &self,
+        b: &Rows<f64>,
+        lam: &[f64; MAX_ROWS],
+        sf: &JointState<f64>,
+        r2: M3<f64>,
+    ) -> (V3<f64>, V3<f64>, M3<f64>) {
+        let at2 = self.law.attachments()[1];
         let mut g = [0.0; NCOL];
         for (c, gc) in g.iter_mut().enumerate() {
             for r in 0..self.n_rows() {
@@ -541,14 +598,8 @@ impl JointKernel {
         }
         let f = v3(&g, 6);
         let m_node = v3(&g, 9);
-        let arm = sf.r[1].mul_v(attach2);
-        // Step-average forces in the mid-step joint frame (statics: the end frame).
-        let r_frame = if ctx.is_static() {
-            sf.r[1]
-        } else {
-            crate::math::rotation::orthonormalize(&(si.r[1] + sf.r[1]).scale_f(0.5))
-        };
-        (f, m_node - arm.cross(&f), r_frame.mul_m(&at2.triad))
+        let arm = sf.r[1].mul_v(&at2.offset);
+        (f, m_node - arm.cross(&f), r2.mul_m(&at2.triad))
     }
 
     /// Constraint values at a state (for the violation sensor).
@@ -556,45 +607,6 @@ impl JointKernel {
         let (_, s) = self.rate_rows(state);
         let mut c = [0.0; MAX_ROWS];
         self.law.value(&s, &mut c);
-        c
-    }
-
-    /// Work of the constraint forces over a converged step, `Δ·(B^Dᵀ λ)` = `λ·(C_f − C_i)`.
-    pub fn step_work(&self, ctx: &StepCtx, y: &[f64]) -> f64 {
-        let buf = self.gather(y);
-        let yl = &buf[..self.unknowns.len()];
-        let si = self.state_i(ctx);
-        let (sf, rs) = self.state_f(&si, &si, yl);
-        let mut b = zero_rows::<f64>();
-        self.law.discrete_gradient(&si, &sf, &mut b);
-        let lam = self.multipliers(ctx, yl, false);
-        let mut work = 0.0;
-        for r in 0..self.n_rows() {
-            let mut bd = 0.0;
-            for k in 0..2 {
-                if let Some(d) = self.slots[k].delta {
-                    let rho = si.r[k].mul_v(&rs[k]);
-                    for c in 0..3 {
-                        bd += b[r][6 * k + c] * yl[d + c] + b[r][6 * k + 3 + c] * rho.0[c];
-                    }
-                }
-            }
-            for c in 0..self.coords.len() {
-                bd += b[r][12 + c] * (sf.q[c] - si.q[c]);
-            }
-            work += lam[r] * bd;
-        }
-        work
-    }
-
-    /// Constraint values at the end of a converged step.
-    pub fn violation(&self, ctx: &StepCtx, y: &[f64]) -> [f64; MAX_ROWS] {
-        let buf = self.gather(y);
-        let yl = &buf[..self.unknowns.len()];
-        let si = self.state_i(ctx);
-        let (sf, _) = self.state_f(&si, &si, yl);
-        let mut c = [0.0; MAX_ROWS];
-        self.law.value(&sf, &mut c);
         c
     }
 

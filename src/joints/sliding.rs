@@ -25,7 +25,9 @@
 
 use super::equations::*;
 use super::kinematics::*;
-use super::{Attachment, ConstraintLaw, JointState, Rows, Side, MAX_COORDS, MAX_ROWS, NCOL};
+use super::{
+    Attachment, ConstraintLaw, JointState, JointStep, Rows, Side, MAX_COORDS, MAX_ROWS, NCOL,
+};
 use crate::beam::path::{ArcMap, BeamPath, NodeWeights};
 use crate::beam::shape::MAX_NODES;
 use crate::elements::{v3, Kernel, StepCtx};
@@ -712,82 +714,66 @@ impl SlidingJoint {
         buf
     }
 
-    /// Work of the constraint forces over a converged step, `Δ·(B^Dᵀ sλ)` (zero: it equals
-    /// `sλ·(C_f − C_i)` and C_f = 0).
-    pub fn step_work(&self, ctx: &StepCtx, y: &[f64]) -> f64 {
+    /// What a converged step tells of the joint (see [`JointStep`]): the constraint values at
+    /// the end, the work `λ·(B^D Δ)` of the constraint forces (zero to round-off), and the
+    /// contact force and moment on the follower at its contact point (inertial) with the
+    /// beam's section frame there (axis 1 along the beam) — from one evaluation of its terms.
+    pub fn step_outcome(&self, ctx: &StepCtx, y: &[f64]) -> JointStep {
         let buf = self.gather(y);
         let yl = &buf[..self.unknowns.len()];
         let t = self.terms(ctx, yl);
-        self.with_map(&t, |map| {
+        let n = self.n_rows();
+        let (lam, work) = self.with_map(&t, |map| {
             let lam = map.multipliers(ctx, yl, false);
             let mut bd = [0.0; MAX_ROWS];
             gradient_times_increment(map, &t.b, yl, &mut bd);
-            (0..self.n_rows()).map(|r| lam[r] * bd[r]).sum()
-        })
-    }
-
-    /// Constraint values at the end of a converged step.
-    pub fn violation(&self, ctx: &StepCtx, y: &[f64]) -> [f64; MAX_ROWS] {
-        let buf = self.gather(y);
-        self.terms(ctx, &buf[..self.unknowns.len()]).c_f
-    }
-
-    /// The contact force and moment on the follower at its contact point (inertial), from
-    /// the discrete constraint forces of a converged step, and the beam's section frame at
-    /// the contact point (axis 1 along the beam).
-    pub fn reaction(&self, ctx: &StepCtx, y: &[f64]) -> (V3<f64>, V3<f64>, M3<f64>) {
-        let buf = self.gather(y);
-        let yl = &buf[..self.unknowns.len()];
-        let t = self.terms(ctx, yl);
-        let lam = self.with_map(&t, |map| map.multipliers(ctx, yl, false));
-        let (f, m_node) = node_force(&t.b, &lam[..self.n_rows()], FOLLOWER_COL);
+            (lam, (0..n).map(|r| lam[r] * bd[r]).sum())
+        });
+        let (f, m_node) = node_force(&t.b, &lam[..n], FOLLOWER_COL);
         let (_, r_f) = self.pose(ctx.state, self.follower, self.follower_slot, Some(yl));
         let arm = r_f.mul_v(&self.law.at[1].offset);
         // The forces are step averages: give them in the mid-step section frame (the end
         // frame would lean by half the step's rotation).
         let zeta_i = ctx.state.coords[self.coord];
         let zeta_f = zeta_i + yl[self.coord_slot];
-        let mut end = ctx.state.clone();
-        self.advance_nodes(&mut end, yl);
-        let (df1, df2) = self.directors(&end, zeta_f);
+        let (df1, df2) = self.directors(zeta_f, |a| self.end_rotation(ctx.state, a, yl));
         let frame = if ctx.is_static() {
             orthonormal_frame(df1, df2)
         } else {
-            let (di1, di2) = self.directors(ctx.state, zeta_i);
+            let (di1, di2) = self.directors(zeta_i, |a| ctx.state.nodes[self.beam_nodes[a]].r);
             orthonormal_frame(di1 + df1, di2 + df2)
         };
-        (f, m_node - arm.cross(&f), frame)
+        JointStep {
+            values: t.c_f,
+            work,
+            reaction: (f, m_node - arm.cross(&f), frame),
+        }
     }
 
-    /// The interpolated directors `Σ h^α e₁^α`, `Σ h^α e₂^α` at ζ.
-    fn directors(&self, state: &State, zeta: f64) -> (V3<f64>, V3<f64>) {
+    /// The end rotation of beam node `a` (index along the beam) after the local increments
+    /// `yl`: moved if it is in the window, as at the start otherwise.
+    fn end_rotation(&self, state: &State, a: usize, yl: &[f64]) -> M3<f64> {
+        let node = Side::Node(self.beam_nodes[a]);
+        if (self.first_node()..=self.last_node()).contains(&a) {
+            let slot = 6 * self.per() * (a - self.first_node());
+            self.pose(state, node, Some(slot), Some(yl)).1
+        } else {
+            self.pose::<f64>(state, node, None, None).1
+        }
+    }
+
+    /// The interpolated directors `Σ h^α e₁^α`, `Σ h^α e₂^α` at ζ, the rotation of beam node
+    /// `a` (index along the beam) from `rotation(a)`.
+    fn directors(&self, zeta: f64, rotation: impl Fn(usize) -> M3<f64>) -> (V3<f64>, V3<f64>) {
         let mut d1 = V3::zero();
         let mut d2 = V3::zero();
         for (n, h) in self.path.weights_in(zeta, self.path.all()).iter() {
-            let r = &state.nodes[self.beam_nodes[n]].r;
+            let r = rotation(n);
             d1 += r.col(0).scale_f(h);
             d2 += r.col(1).scale_f(h);
         }
         (d1, d2)
     }
-
-    /// The window's nodes and the follower moved by the local increments (for evaluating the
-    /// contact at the end of a step).
-    fn advance_nodes(&self, state: &mut State, yl: &[f64]) {
-        let per = self.per();
-        for j in 0..=(self.last_node() - self.first_node()) {
-            let a = self.beam_nodes[self.first_node() + j];
-            let (x, r) = self.pose(state, Side::Node(a), Some(6 * per * j), Some(yl));
-            state.nodes[a].x = x;
-            state.nodes[a].r = r;
-        }
-        if let (Side::Node(a), Some(d)) = (self.follower, self.follower_slot) {
-            let (x, r) = self.pose(state, self.follower, Some(d), Some(yl));
-            state.nodes[a].x = x;
-            state.nodes[a].r = r;
-        }
-    }
-
     /// The contact point `P(ζ)`, the section frame there (the interpolated directors
     /// `Σ h^α e_k^α` made orthonormal, axis 1 first) and the path's speed `|P′(ζ)|` (m per unit
     /// ζ), at a state.
