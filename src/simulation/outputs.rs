@@ -172,8 +172,10 @@ impl Simulation {
 }
 
 /// The length of a step that solves for an instant's accelerations and forces: short against
-/// a step of `step`, but long enough that the motion over it, ~½ a h², stands 1e4 above the
-/// round-off of positions ~ε L (a from gravity and the speeds).
+/// a step of `step` (1e-3 of it), but long enough that the motion over it, ~½ a h², stands 1e4
+/// above the round-off of positions ~ε L (a from gravity and the speeds) — up to a whole step,
+/// so that the round-off floor wins over shortness for fine steps. (A four-bar at 1 µs steps
+/// took 1e-7 s instants, whose motion stood only ~250× above round-off: forces off by 0.3 %.)
 pub(super) fn instant_step(system: &System, state: &State, step: f64) -> f64 {
     let l = system.length_ref;
     let speed = state
@@ -186,5 +188,5 @@ pub(super) fn instant_step(system: &System, state: &State, step: f64) -> f64 {
     } else {
         0.0
     };
-    (1e-3 * step).max(floor.min(0.1 * step))
+    (1e-3 * step).max(floor.min(step))
 }
