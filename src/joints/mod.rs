@@ -527,13 +527,13 @@ impl JointKernel {
         let buf = self.gather(y);
         let yl = &buf[..self.unknowns.len()];
         let si = self.state_i(ctx);
-        let (sf, rs) = self.state_f(&si, &si, yl);
+        let (sf, _) = self.state_f(&si, &si, yl);
         let mut values = [0.0; MAX_ROWS];
         self.law.value(&sf, &mut values);
         let mut bd = zero_rows::<f64>();
         self.law.discrete_gradient(&si, &sf, &mut bd);
         let lam = self.multipliers(ctx, yl, false);
-        let work = self.gradient_work(&bd, &lam, &si, &sf, &rs, yl);
+        let work = self.gradient_work(&bd, &lam, &si, &sf, yl);
         // Statics: the forces of B(q_f) in the end frame; a step's: of B^D, step averages in
         // the mid-step frame.
         let reaction = if ctx.is_static() {
@@ -549,34 +549,27 @@ impl JointKernel {
         }
     }
 
-    /// The work `λ·(B^D Δ)` of the constraint forces over the step (`Δ` with the spatial
-    /// rotation increments `R_i r` and the coordinates' increments).
+    /// The work `λ·(B^D Δ)` of the constraint forces over the step
+    /// ([`equations::gradient_times_increment`] over the joint's columns).
     fn gradient_work(
         &self,
         bd: &Rows<f64>,
         lam: &[f64; MAX_ROWS],
         si: &JointState<f64>,
         sf: &JointState<f64>,
-        rs: &[V3<f64>; 2],
         yl: &[f64],
     ) -> f64 {
-        let mut work = 0.0;
-        for r in 0..self.n_rows() {
-            let mut bd_r = 0.0;
-            for k in 0..2 {
-                if let Some(d) = self.slots[k].delta {
-                    let rho = si.r[k].mul_v(&rs[k]);
-                    for c in 0..3 {
-                        bd_r += bd[r][6 * k + c] * yl[d + c] + bd[r][6 * k + 3 + c] * rho.0[c];
-                    }
-                }
-            }
-            for c in 0..self.coords.len() {
-                bd_r += bd[r][12 + c] * (sf.q[c] - si.q[c]);
-            }
-            work += lam[r] * bd_r;
-        }
-        work
+        let (blocks, nb, coords) = self.columns(si, sf);
+        let map = ColumnMap {
+            nodes: &blocks[..nb],
+            coords: &coords[..self.coords.len()],
+            mult: self.mult_slot,
+            per: self.per,
+            n_rows: self.n_rows(),
+        };
+        let mut bd_delta = [0.0; MAX_ROWS];
+        equations::gradient_times_increment(&map, bd, yl, &mut bd_delta);
+        (0..self.n_rows()).map(|r| lam[r] * bd_delta[r]).sum()
     }
 
     /// The reaction `−bᵀλ` on node2's side as force and moment about the joint point at the

@@ -488,11 +488,18 @@ impl SlidingJoint {
         )
     }
 
-    /// Adds `w·pair` (the pair law's 12 columns: node, follower) into a share's columns.
-    fn blend<T: Real>(b: &mut Grad<T, SHARE_NC>, pair: &Rows<T>, w: T, n: usize) {
+    /// Writes `w·pair` (the pair law's 12 columns: node, follower) into a share's columns,
+    /// each entry through `to` (the identity, or the value part for a constant of the step).
+    fn blend<T: Real, U>(
+        b: &mut Grad<U, SHARE_NC>,
+        pair: &Rows<T>,
+        w: T,
+        n: usize,
+        to: impl Fn(T) -> U,
+    ) {
         for r in 0..n {
             for c in 0..12 {
-                b[r][c] = pair[r][c] * w;
+                b[r][c] = to(pair[r][c] * w);
             }
         }
     }
@@ -556,14 +563,14 @@ impl SlidingJoint {
         if ctx.is_static() {
             // B(q_f): h_f B_g(f), and on ζ h_f′ g_f.
             self.law.rate(&sf, &mut pair);
-            Self::blend(&mut share.b, &pair, w.hf[j], n);
+            Self::blend(&mut share.b, &pair, w.hf[j], n, |v| v);
             for r in 0..n {
                 share.b[r][SHARE_ZETA] = w.dhf[j] * gf[r];
             }
         } else {
             // B^D: h_m B_g^D, and on ζ S g_m (eq. 33 generalised).
             self.law.discrete_gradient(&si, &sf, &mut pair);
-            Self::blend(&mut share.b, &pair, (w.hi[j] + w.hf[j]) * 0.5, n);
+            Self::blend(&mut share.b, &pair, (w.hi[j] + w.hf[j]) * 0.5, n, |v| v);
             for r in 0..n {
                 share.b[r][SHARE_ZETA] = w.sec[j] * (gi[r] + gf[r]) * 0.5;
             }
@@ -573,15 +580,13 @@ impl SlidingJoint {
             // not depend on the unknowns: B(q_i) is their value part.
             pair[..n].fill([T::zero(); NCOL]);
             self.law.rate(&si, &mut pair);
+            Self::blend(b_i, &pair, w.hi[j], n, T::re);
             for r in 0..n {
-                for c in 0..12 {
-                    b_i[r][c] = (pair[r][c] * w.hi[j]).re();
-                }
                 b_i[r][SHARE_ZETA] = (w.dhi[j] * gi[r]).re();
             }
             pair[..n].fill([T::zero(); NCOL]);
             self.law.rate(&sf, &mut pair);
-            Self::blend(b_f, &pair, w.hf[j], n);
+            Self::blend(b_f, &pair, w.hf[j], n, |v| v);
             for r in 0..n {
                 b_f[r][SHARE_ZETA] = w.dhf[j] * gf[r];
             }
