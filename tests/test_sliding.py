@@ -85,7 +85,9 @@ def test_ep_free_collar_conserves_energy_and_momentum_across_elements(order):
     # Elements visited (the end stops let η run a little past the ends, still on the end ones).
     crossings = int(np.ptp(np.floor(np.clip(eta, 0.0, 1.0 - 1e-12) * ne)))
     assert crossings >= 2, f"the collar should cross several elements (crossed {crossings})"
-    assert res.flexdyn.stats["pattern_rebuilds"] >= crossings
+    # The window followed the contact point: one move per element crossed, except into an
+    # end element, which the window next to it covers already (its limit there is open).
+    assert res.flexdyn.stats["pattern_rebuilds"] >= crossings - 2
     # Energy to Newton tolerance (notes: ~1e-11 at tol 1e-12; ours is 1e-10 on the residual,
     # measured 5e-10 to 1e-9 of E).
     assert np.max(np.abs(E - E[0])) / E[0] < 1e-8
@@ -449,3 +451,33 @@ def test_a_follower_on_its_own_beam_is_reported():
         match=r"joints\[1\]\.follower: sliding joint `slider`: the follower `track\.3` is a node of beam `track` itself",
     ):
         fd.simulate(m)
+
+
+@pytest.mark.parametrize("scheme", ["ep", "ed"])
+def test_a_collar_resting_on_an_element_boundary_keeps_its_window(scheme):
+    """A collar released at rest at mid-span of a tumbling beam meshed with an even number of
+    elements sits on an element boundary and lingers there (the beam turns about it). Its
+    contact point crosses and recrosses the boundary by micrometres; the window of unknowns
+    around it must not follow every crossing — each move is a new matrix pattern, ordering
+    and pivoting factorization (it moved in 290 of 400 steps at 5 ms, 15× the run's cost).
+    Default settings: adaptive steps."""
+    m = fd.Model("resting collar")
+    omega = np.array([0.0, 0.3, 0.5])
+    m.beam(
+        "beam", [0, 0, 0], [2.4, 0, 0], elements=12, order=3, section=SOFT,
+        velocity=list(-np.cross(omega, [1.2, 0, 0])), angular_velocity=list(omega),
+    )  # fmt: skip
+    m.node("collar", [1.2, 0, 0])
+    m.body("collar_mass", "collar", mass=2.0, inertia=[0.01, 0.01, 0.01])
+    m.sliding("slider", "beam", "collar", eta=0.5)
+    m.sensor("joint_coordinate", "contact", joint="slider")
+    m.sensor("energy", "E")
+    m.simulation(t_end=1.0, scheme=scheme)
+    res = fd.simulate(m)
+    eta = res["contact.eta"].values
+    # The contact point does cross the boundary (η = 0.5) back and forth …
+    side = np.sign(eta[1:] - 0.5)
+    assert np.count_nonzero(side[1:] != side[:-1]) >= 2 or np.ptp(eta) < 1e-9
+    # … by far less than the window's hysteresis (a quarter of a 0.2 m element): no move.
+    assert np.ptp(eta) * 12 < 0.25
+    assert res.flexdyn.stats["pattern_rebuilds"] == 0

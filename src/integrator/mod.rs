@@ -925,7 +925,7 @@ impl Integrator {
         m: &Measure,
         clamped: Option<&str>,
     ) -> StepFailure {
-        let window = clamped.map_or(String::new(), |name| format!("; the contact point of sliding joint `{name}` was held at the edge of its window (it would move more than one element in this step)"));
+        let window = clamped.map_or(String::new(), |name| format!("; the contact point of sliding joint `{name}` was held at the edge of its window (it would move about an element or more in this step)"));
         step_failure(
             ctx,
             format!(
