@@ -194,6 +194,12 @@ impl Kernel for CoordinateSpring {
     fn unknowns(&self) -> &[usize] {
         &self.unknowns
     }
+    /// The whole block (1 × 1, ED 2 × 2): a piecewise law is flat where the probe happens to
+    /// look — end stops exert nothing until the contact point passes a beam's end, and then
+    /// wrote their stiffness outside the pattern at every step on the stop.
+    fn structure(&self, _ctx: &StepCtx, _y: &[f64]) -> Vec<bool> {
+        vec![true; self.unknowns.len().pow(2)]
+    }
     fn residual<T: Real>(&self, ctx: &StepCtx, y: &[T], r: &mut [T]) {
         let h = ctx.h;
         let qi = T::cst(ctx.state.coords[self.coord]);

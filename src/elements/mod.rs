@@ -115,12 +115,7 @@ pub trait Kernel {
     where
         Self: Sized,
     {
-        let mut mask = block_structure(self, ctx, y);
-        if ctx.ed() {
-            let decoupled = decoupled_structure(self, ctx, y);
-            mask.iter_mut().zip(decoupled).for_each(|(a, b)| *a |= b);
-        }
-        mask
+        tangent_structure(self, ctx, y)
     }
 }
 
@@ -261,6 +256,18 @@ pub fn block_structure<K: Kernel>(k: &K, ctx: &StepCtx, y: &[f64]) -> Vec<bool> 
     k.evaluate(ctx, y, &mut res, Some((&mut vals, &pos)));
     let scale = vals.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     vals.iter().map(|v| v.abs() > 1e-13 * scale).collect()
+}
+
+/// The entries any tangent the kernel assembles at `y` can write (row-major): the exact
+/// one's and, under ED, the decoupled evaluation's. Kernels that override
+/// [`Kernel::structure`] to probe several states take the union of these.
+pub fn tangent_structure<K: Kernel>(k: &K, ctx: &StepCtx, y: &[f64]) -> Vec<bool> {
+    let mut mask = block_structure(k, ctx, y);
+    if ctx.ed() {
+        let decoupled = decoupled_structure(k, ctx, y);
+        mask.iter_mut().zip(decoupled).for_each(|(a, b)| *a |= b);
+    }
+    mask
 }
 
 /// The nonzero entries [`Kernel::evaluate_decoupled`] writes (row-major) at `y`.

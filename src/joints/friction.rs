@@ -26,7 +26,7 @@
 //! Statics leave friction out (`F = 0`: a static equilibrium with friction is not unique).
 
 use crate::beam::path::ArcMap;
-use crate::elements::{block_structure, decoupled_structure, eval_kernel, Kernel, StepCtx};
+use crate::elements::{eval_kernel, tangent_structure, Kernel, StepCtx};
 use crate::math::layout::Layout;
 use crate::math::scalar::Real;
 use crate::math::vec3::V3;
@@ -762,11 +762,7 @@ impl Kernel for Friction {
                 state: &state,
                 ..*ctx
             };
-            let mut m = block_structure(self, &c, y);
-            if c.ed() {
-                let d = decoupled_structure(self, &c, y);
-                m.iter_mut().zip(d).for_each(|(a, b)| *a |= b);
-            }
+            let m = tangent_structure(self, &c, y);
             mask.iter_mut().zip(m).for_each(|(a, b)| *a |= b);
         }
         mask

@@ -1007,8 +1007,13 @@ impl Kernel for SlidingJoint {
         });
     }
 
-    /// The pattern must hold wherever ζ goes in the window during the step: the union of
-    /// the structures with the step ending in each of its elements.
+    /// The pattern must hold wherever ζ is in the window during the step: the union of the
+    /// structures with the step ending in each of its elements, of the exact tangent and of
+    /// ED's decoupled one (the latter once missing: 20 entries written outside the pattern
+    /// per 2000 ED steps of the free collar). Each share depends on one window node, the
+    /// follower, ζ and the multipliers, its weight the mean of ζ_i's and ζ_f's: ζ_f in every
+    /// element reaches every node's entries, so a step starting in an outer element (the
+    /// window lingers, [`WINDOW_HYSTERESIS`]) needs no probe of its own.
     fn structure(&self, ctx: &StepCtx, y: &[f64]) -> Vec<bool> {
         let mut state = ctx.state.clone();
         let centre = (self.window.0 + self.window.1) as f64 * 0.5 + 0.5;
@@ -1023,7 +1028,7 @@ impl Kernel for SlidingJoint {
         for e in self.window.0..=self.window.1 {
             for frac in [0.3, 0.7] {
                 yl[delta] = e as f64 + frac - centre;
-                let m = crate::elements::block_structure(self, &probe, &yl);
+                let m = crate::elements::tangent_structure(self, &probe, &yl);
                 if mask.is_empty() {
                     mask = m;
                 } else {
