@@ -436,7 +436,7 @@ impl PySimulation {
     /// Warnings raised so far (each once), for the user.
     #[getter]
     fn warnings(&self) -> Vec<String> {
-        self.sim.warnings.clone()
+        self.sim.run_warnings()
     }
     /// Total energy of the current state (kinetic, strain, springs, gravity), J.
     #[getter]

@@ -489,3 +489,34 @@ def test_a_collar_resting_on_an_element_boundary_keeps_its_window(scheme):
     # … by far less than the window's hysteresis (a quarter of a 0.2 m element): no move.
     assert np.ptp(eta) * 12 < 0.25
     assert res.flexdyn.stats["pattern_rebuilds"] == 0
+
+
+def collar_pressed_across(x0, **simulation):
+    """A free 1 kg collar on a soft 2 m cantilever of 8 elements, pushed across the beam at
+    0.1 m/s; at x0 = 0.5 m it rests on a node."""
+    m = fd.Model("collar pressed across a cantilever")
+    m.beam("beam", [0, 0, 0], [2.0, 0, 0], elements=8, section=SOFT)
+    m.clamp("root", "ground", "beam.start")
+    m.node("collar", [x0, 0, 0], velocity=[0, 0, 0.1])
+    m.body("collar_mass", "collar", mass=1.0, inertia=[1e-3] * 3)
+    m.sliding("s", "beam", "collar")
+    m.simulation(**simulation)
+    return m
+
+
+def test_a_free_follower_pressing_on_a_node_is_named_as_the_cause_of_the_retries():
+    """The beam's path can kink only at nodes; the collar's own load kinks it under a collar
+    resting on one, and a frictionless contact has no balanced position on the kink: steps
+    fail and shrink. The run says so — the warning of a run that crawls on, the error of one
+    that stops — instead of leaving a user with a run that takes minutes per millisecond."""
+    hint = "sat on a node of its beam (η = 0.250000)"
+    res = fd.simulate(collar_pressed_across(0.5, t_end=2e-4))  # default: ED, adaptive
+    assert res.flexdyn.stats["halvings"] >= 10
+    (warning,) = [w for w in res.flexdyn.warnings if "retried shorter" in w]
+    assert "coordinate `s.eta` force balance" in warning and hint in warning
+    with pytest.raises(fd.SolverError, match="sat on a node of its beam"):
+        fd.simulate(collar_pressed_across(0.5, t_end=1e-3, step_control="fixed", dt=1e-4))
+    # Placed off the node (5 cm, a fifth of an element), the same collar runs without a retry.
+    res = fd.simulate(collar_pressed_across(0.55, t_end=2e-4))
+    assert res.flexdyn.stats["halvings"] == 0
+    assert not any("retried shorter" in w for w in res.flexdyn.warnings)

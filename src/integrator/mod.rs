@@ -103,6 +103,8 @@ pub struct StepFailure {
     pub retry: bool,
     /// A static load step: the load factor it aimed at.
     pub load_factor: Option<f64>,
+    /// The equation that did not balance when Newton ran out of iterations (its row).
+    pub row: Option<usize>,
 }
 
 /// A failure of the step in `ctx`.
@@ -113,6 +115,7 @@ fn step_failure(ctx: &StepCtx, reason: String, retry: bool) -> StepFailure {
         reason,
         retry,
         load_factor: ctx.statics,
+        row: None,
     }
 }
 
@@ -926,15 +929,30 @@ impl Integrator {
         clamped: Option<&str>,
     ) -> StepFailure {
         let window = clamped.map_or(String::new(), |name| format!("; the contact point of sliding joint `{name}` was held at the edge of its window (it would move about an element or more in this step)"));
-        step_failure(
-            ctx,
-            format!(
-                "Newton did not converge in {} iterations: {}{window}",
-                self.max_iter,
-                m.describe(sys, self.tol)
-            ),
-            true,
-        )
+        let row = if m.force_ratio(self.tol) > 1.0 || !m.force.is_finite() {
+            m.force_row
+        } else {
+            m.constraint_row
+        };
+        let on_node = sys
+            .joints
+            .iter()
+            .filter_map(|j| j.as_sliding())
+            .filter(|sl| row == sys.layout.coord_delta(sl.coord))
+            .find_map(|sl| sl.node_kink_hint(ctx.state.coords[sl.coord]))
+            .map_or(String::new(), |hint| format!("; {hint}"));
+        StepFailure {
+            row: Some(row),
+            ..step_failure(
+                ctx,
+                format!(
+                    "Newton did not converge in {} iterations: {}{window}{on_node}",
+                    self.max_iter,
+                    m.describe(sys, self.tol)
+                ),
+                true,
+            )
+        }
     }
 
     /// The increment test (an explicit setting): after a fresh tangent's update that moved
@@ -1220,6 +1238,7 @@ impl Integrator {
                     },
                     retry: false,
                     load_factor: ctx.statics,
+                    row: None,
                 });
             }
         }

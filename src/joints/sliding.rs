@@ -450,6 +450,23 @@ impl SlidingJoint {
         (self.window.1 + 1) * self.path.order
     }
 
+    /// Why a Newton failure left this joint's ζ equation unbalanced, if its contact point sat
+    /// on an interior node at the step's start (ζ_i within 1e-6 of an element boundary): the
+    /// beam's path,
+    /// interpolated element by element, can kink there under the follower's own load, and a
+    /// free follower pressing across the beam then has no balanced position — the secant
+    /// slope in `λ·S(ζ_f) = 0` jumps from one element's to the other's as ζ_f passes ζ_i.
+    pub fn node_kink_hint(&self, zeta_i: f64) -> Option<String> {
+        let node = zeta_i.round();
+        let interior = node > 0.0 && node < self.path.elements as f64;
+        if interior && (zeta_i - node).abs() <= 1e-6 {
+            let eta = self.arc.eta(node);
+            Some(format!("the contact point of sliding joint `{}` sat on a node of its beam (η = {eta:.6}), where the beam's path can kink under the follower's own load: a free follower pressing across the beam has no balanced position on the kink. Place it off the node, or prescribe η with a `drive`", self.name))
+        } else {
+            None
+        }
+    }
+
     /// The range ζ may take within a step: the window, except that at the beam's ends it
     /// extends (a contact point past an end is detected after the step converges).
     pub fn zeta_limits(&self) -> (f64, f64) {
@@ -1272,6 +1289,20 @@ mod tests {
         assert!(j.place_window(6.0));
         assert_eq!(j.window(), (4, 5));
         assert_eq!(j.zeta_limits(), (4.0, f64::INFINITY));
+    }
+
+    #[test]
+    fn only_a_contact_resting_on_an_interior_node_gets_the_kink_hint() {
+        let state = setup(6, 3);
+        let layout = Layout::new(Scheme::Ep, state.nodes.len(), 1, 4);
+        let j = joint(SlidingKind::Point, 6, 3, 0.2, false, &layout);
+        let hint = j
+            .node_kink_hint(3.0 + 1e-8)
+            .expect("on node 3 of 6 elements");
+        assert!(hint.contains("η = 0.500000"), "{hint}");
+        for zeta in [3.001, 2.5, 0.0, 6.0] {
+            assert!(j.node_kink_hint(zeta).is_none(), "ζ = {zeta}");
+        }
     }
 
     #[test]

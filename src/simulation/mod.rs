@@ -2,6 +2,7 @@
 //! on Newton failure, and sensor samples handed out in chunks so memory stays flat.
 
 mod energy_scale;
+mod failures;
 mod inertial_preload;
 mod initial_velocities;
 mod outputs;
@@ -119,6 +120,8 @@ pub struct Simulation {
     pub totals: Totals,
     pub stats: RunStats,
     pub warnings: Vec<String>,
+    /// Steps that failed and were retried shorter, by the equation left unbalanced.
+    failures: failures::FailureLog,
     pub last_report: Option<StepReport>,
     /// Recorded samples not yet taken: times and row-major values.
     times: Vec<f64>,
@@ -201,6 +204,7 @@ impl Simulation {
             totals,
             stats: RunStats::default(),
             warnings,
+            failures: Default::default(),
             last_report: None,
             times: vec![],
             values: vec![],
@@ -446,6 +450,7 @@ impl Simulation {
             }
             Err(e) if e.retry && depth < self.settings.max_step_halvings => {
                 self.stats.halvings += 1;
+                self.note_retried_failure(&e);
                 let mid = 0.5 * (self.load_factor + target);
                 self.advance_load(mid, depth + 1)?;
                 self.advance_load(target, depth + 1)
@@ -532,6 +537,7 @@ impl Simulation {
             }
             Err(e) if e.retry && depth < self.settings.max_step_halvings => {
                 self.stats.halvings += 1;
+                self.note_retried_failure(&e);
                 self.advance_interval(self.state.t + 0.5 * h, depth + 1)?;
                 self.advance_interval(end, depth + 1)
             }

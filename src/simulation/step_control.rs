@@ -263,6 +263,7 @@ impl Simulation {
                 Err(e) if e.retry && h > dt_min * (1.0 + 1e-12) => {
                     self.stats.rejected += 1;
                     self.stats.halvings += 1;
+                    self.note_retried_failure(&e);
                     self.controller.failed();
                     h = (0.25 * h).max(dt_min);
                 }
@@ -308,6 +309,7 @@ impl Simulation {
             reason,
             retry: false,
             load_factor: None,
+            row: None,
         }
     }
 }

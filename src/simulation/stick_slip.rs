@@ -145,6 +145,7 @@ impl Simulation {
             reason: "friction: the joints' stick–slip modes did not settle within the step (a joint that can neither stick nor slide consistently); lower `dt_min` or check the friction coefficients".into(),
             retry: true,
             load_factor: None,
+            row: None,
         })
     }
 
