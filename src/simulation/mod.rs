@@ -225,21 +225,26 @@ impl Simulation {
         sim.h_next = sim.settings.dt;
         sim.energy_scale = sim.motion_energies(&sim.state).map(|e| e.max(energy_floor));
         sim.step_end_channels = sim.channels.step_end_channels();
+        sim.record_start(statics);
+        Ok(sim)
+    }
+
+    /// The first sample: a static run's unloaded state, with no reactions yet; a dynamic
+    /// run's initial state with its instant values.
+    fn record_start(&mut self, statics: bool) {
         if statics {
-            // The unloaded state, with no reactions yet.
-            let mut row = Vec::with_capacity(sim.channels.len());
-            sim.channels
-                .sample(&sim.system, &sim.state, &sim.totals, &mut row);
-            for &c in sim.channels.step_channels() {
+            let mut row = Vec::with_capacity(self.channels.len());
+            self.channels
+                .sample(&self.system, &self.state, &self.totals, &mut row);
+            for &c in self.channels.step_channels() {
                 row[c] = 0.0;
             }
-            sim.times.push(0.0);
-            sim.values.extend_from_slice(&row);
+            self.times.push(0.0);
+            self.values.extend_from_slice(&row);
         } else {
-            sim.record();
-            sim.push_instant_values();
+            self.record();
+            self.push_instant_values();
         }
-        Ok(sim)
     }
 
     pub fn is_static(&self) -> bool {
