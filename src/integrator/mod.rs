@@ -935,12 +935,8 @@ impl Integrator {
             m.constraint_row
         };
         let on_node = sys
-            .joints
-            .iter()
-            .filter_map(|j| j.as_sliding())
-            .filter(|sl| row == sys.layout.coord_delta(sl.coord))
-            .find_map(|sl| sl.node_kink_hint(ctx.state.coords[sl.coord]))
-            .map_or(String::new(), |hint| format!("; {hint}"));
+            .node_kink_hint(row, ctx.state)
+            .map_or(String::new(), |(_, hint)| format!("; {hint}"));
         StepFailure {
             row: Some(row),
             ..step_failure(

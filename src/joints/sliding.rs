@@ -452,10 +452,9 @@ impl SlidingJoint {
 
     /// Why a Newton failure left this joint's ζ equation unbalanced, if its contact point sat
     /// on an interior node at the step's start (ζ_i within 1e-6 of an element boundary): the
-    /// beam's path,
-    /// interpolated element by element, can kink there under the follower's own load, and a
-    /// free follower pressing across the beam then has no balanced position — the secant
-    /// slope in `λ·S(ζ_f) = 0` jumps from one element's to the other's as ζ_f passes ζ_i.
+    /// beam's path, interpolated element by element, can kink there under the follower's own
+    /// load, and a free follower pressing across the beam then has no balanced position — the
+    /// secant slope in `λ·S(ζ_f) = 0` jumps from one element's to the other's as ζ_f passes ζ_i.
     pub fn node_kink_hint(&self, zeta_i: f64) -> Option<String> {
         let node = zeta_i.round();
         let interior = node > 0.0 && node < self.path.elements as f64;

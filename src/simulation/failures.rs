@@ -19,9 +19,9 @@ pub struct FailureLog {
 #[derive(Clone, Debug, Default)]
 struct RowFailures {
     count: usize,
-    /// A sliding joint whose ζ equation this is, the failures with its contact point on a
-    /// node, and that contact point (ζ_i).
-    on_node: Option<(usize, usize, f64)>,
+    /// Of them, the failures of a sliding joint's ζ equation with its contact point on a
+    /// node, and the last one's explanation.
+    on_node: Option<(usize, String)>,
 }
 
 impl Simulation {
@@ -30,20 +30,11 @@ impl Simulation {
         let Some(row) = failure.row else {
             return;
         };
-        let layout = self.system.layout;
         let entry = self.failures.rows.entry(row).or_default();
         entry.count += 1;
-        for (j, sl) in self.system.joints.iter().enumerate() {
-            let Some(sl) = sl.as_sliding() else {
-                continue;
-            };
-            let zeta_row = row == layout.coord_delta(sl.coord)
-                || (layout.ed() && row == layout.coord_jump(sl.coord));
-            let zeta = self.state.coords[sl.coord];
-            if zeta_row && sl.node_kink_hint(zeta).is_some() {
-                let hits = entry.on_node.map_or(0, |(_, n, _)| n);
-                entry.on_node = Some((j, hits + 1, zeta));
-            }
+        if let Some((_, hint)) = self.system.node_kink_hint(row, &self.state) {
+            let hits = entry.on_node.as_ref().map_or(0, |(n, _)| *n);
+            entry.on_node = Some((hits + 1, hint));
         }
     }
 
@@ -61,12 +52,8 @@ impl Simulation {
                 self.stats.dt_smallest,
                 self.system.describe_row(row)
             );
-            let on_node = f.on_node.filter(|&(_, hits, _)| 2 * hits >= f.count);
-            if let Some((j, hits, zeta)) = on_node {
-                let sl = self.system.joints[j].as_sliding();
-                if let Some(hint) = sl.and_then(|sl| sl.node_kink_hint(zeta)) {
-                    text += &format!(". In {hits} of them {hint}");
-                }
+            if let Some((hits, hint)) = f.on_node.as_ref().filter(|(h, _)| 2 * h >= f.count) {
+                text += &format!(". In {hits} of them {hint}");
             }
             out.push(text);
         }

@@ -240,6 +240,25 @@ impl System {
         grav + spr + strain
     }
 
+    /// If `row` is a sliding joint's contact-coordinate equation (ζ's, or ED's jump) and its
+    /// contact point `state` starts on an interior node of the beam: the joint's index and
+    /// why that equation can fail there ([`crate::joints::sliding::SlidingJoint::node_kink_hint`]).
+    pub fn node_kink_hint(
+        &self,
+        row: usize,
+        state: &crate::state::State,
+    ) -> Option<(usize, String)> {
+        let lay = self.layout;
+        self.joints.iter().enumerate().find_map(|(j, joint)| {
+            let sl = joint.as_sliding()?;
+            let own =
+                row == lay.coord_delta(sl.coord) || (lay.ed() && row == lay.coord_jump(sl.coord));
+            own.then(|| sl.node_kink_hint(state.coords[sl.coord]))
+                .flatten()
+                .map(|hint| (j, hint))
+        })
+    }
+
     /// Human-readable owner of a global unknown/row, for diagnostics.
     pub fn describe_row(&self, i: usize) -> String {
         use crate::math::layout::RowOwner::*;
