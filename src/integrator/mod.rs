@@ -17,7 +17,7 @@ use corotation::CoRotation;
 use ed_decoupled::DecoupledSystem;
 pub use load_response::LoadResponse;
 use positions::KernelPositions;
-use renewal::Renewal;
+use renewal::{KindStreak, Renewal};
 use structure::BlockStructure;
 
 use crate::elements::{Kernel, StepCtx};
@@ -37,6 +37,16 @@ const STALE_ITERATIONS: f64 = 5.0;
 /// exact matrix's pay (its tangent and LU cost ~20 residual-only iterations with the
 /// decoupled system's back-substitution, against its own ~8).
 const DECOUPLED_ITERATIONS: f64 = 15.0;
+
+/// ED: fresh factors' cost in residual-only iterations on decoupled factors — the exact
+/// matrix's tangent and LU, the decoupled system's (beam pendulum).
+const EXACT_REFRESH: f64 = 20.0;
+const DECOUPLED_REFRESH: f64 = 9.0;
+
+/// ED: an iteration on the exact matrix's factors against one on the decoupled system's —
+/// the same residual, a dearer solve (12-element beam pendulum: residual 171k and solve 137k
+/// instructions, against the complex solve's 64k).
+const EXACT_ITERATION: f64 = 1.3;
 
 /// What the rate test asks of kept factors that contract too slowly.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -209,8 +219,10 @@ pub struct Integrator {
     /// running mean): ED's exact factors pay only where they last.
     served: Renewal,
     lifetimes: [Option<f64>; 2],
-    /// ED: fresh factorizations of the same kind in a row.
-    streak: usize,
+    /// ED: fresh factorizations of the same kind in a row, and when the other is retried.
+    kinds: KindStreak,
+    /// Newton iterations per converged step, a running mean (what a dearer solve costs).
+    iterations_per_step: f64,
 }
 
 /// A Newton matrix's pattern, each kernel's block positions in it and the block structure
@@ -331,7 +343,8 @@ impl Integrator {
             decoupled_from: None,
             served: Renewal::default(),
             lifetimes: [None; 2],
-            streak: 0,
+            kinds: KindStreak::default(),
+            iterations_per_step: 0.0,
         }
     }
 
@@ -825,6 +838,8 @@ impl Integrator {
         self.check_contacts_on_beams(sys, ctx)?;
         self.last_converged = true;
         self.served.record(report.iterations);
+        let it = report.iterations as f64;
+        self.iterations_per_step += 0.1 * (it - self.iterations_per_step);
         Ok(report)
     }
 
@@ -1044,17 +1059,18 @@ impl Integrator {
     /// kept, 8.5 iterations per step) and exact ones, co-rotated, last long enough
     /// ([`Self::exact_outlasts`]). Untried, they are tried where decoupled ones last at most
     /// 1.5 steps; after 16 fresh factorizations of one kind the other is tried again (where
-    /// decoupled ones last at most 2 steps), so neither judgement goes stale. Only factors
+    /// decoupled ones last at most 2 steps), so neither judgement goes stale — a retrial that
+    /// loses doubles the wait before the next ([`KindStreak`]). Only factors
     /// replaced at the step size they were computed for count (see `note_lifetime`).
     fn exact_preferred(&self) -> bool {
         let [exact, Some(decoupled)] = self.lifetimes else {
             return false;
         };
-        if self.streak >= 16 {
-            return self.factors != Factors::Exact && decoupled <= 2.0;
+        if self.kinds.retrial_due() {
+            return self.kinds.last_decoupled() && decoupled <= 2.0;
         }
         match exact {
-            Some(exact) => Self::exact_outlasts(exact, decoupled),
+            Some(exact) => self.exact_outlasts(exact, decoupled),
             None => decoupled <= 1.5,
         }
     }
@@ -1063,28 +1079,29 @@ impl Integrator {
     /// step if untried): see [`Self::exact_outlasts`].
     fn exact_factors_last(&self) -> bool {
         match self.lifetimes {
-            [Some(exact), decoupled] => Self::exact_outlasts(exact, decoupled.unwrap_or(1.0)),
+            [Some(exact), decoupled] => self.exact_outlasts(exact, decoupled.unwrap_or(1.0)),
             [None, _] => true,
         }
     }
 
-    /// Exact factors pay where they last at least 2.5 times as many steps as decoupled ones,
-    /// about their relative cost (tangent and LU: ~20 against ~9 residual-only iterations on
-    /// the beam pendulum). Where contact windows move or the configuration changes fast (a
-    /// collar sliding on a tumbling beam) they last no longer.
-    fn exact_outlasts(exact: f64, decoupled: f64) -> bool {
-        exact >= 2.5 * decoupled
+    /// Exact factors that last `exact` steps pay against decoupled ones that last `decoupled`
+    /// where they cost less per step: their refresh (tangent and LU: ~20 residual-only
+    /// iterations on the beam pendulum, against the decoupled system's ~9) spread over the
+    /// steps they serve, plus their dearer solves at every iteration ([`EXACT_ITERATION`]).
+    /// Where contact windows move or the configuration changes fast (a collar sliding on a
+    /// tumbling beam) exact factors last hardly longer, and their solves decide: counted by
+    /// lifetimes alone, a free collar at 5 ms took them whenever they happened to last 3
+    /// steps against 1.1 and spent 7 % more.
+    fn exact_outlasts(&self, exact: f64, decoupled: f64) -> bool {
+        let solves = (EXACT_ITERATION - 1.0) * self.iterations_per_step;
+        EXACT_REFRESH / exact + solves <= DECOUPLED_REFRESH / decoupled
     }
 
     /// Fresh factors of `kind` replace those in hand: the steps these served join their kind's
     /// running mean if they were still `fit` for the step size (a factor dropped for a new h
     /// says nothing about how long its kind lasts).
     fn note_lifetime(&mut self, kind: Factors, fit: bool) {
-        self.streak = if kind == self.factors {
-            self.streak + 1
-        } else {
-            0
-        };
+        self.kinds.record(kind == Factors::Decoupled);
         if fit {
             let k = (self.factors == Factors::Decoupled) as usize;
             let served = self.served.steps().max(1) as f64;

@@ -80,6 +80,72 @@ pub fn refresh_cost(nnz: usize, n: usize, decoupled: bool) -> f64 {
     }
 }
 
+/// ED: fresh factorizations of the kind in hand (exact or decoupled) in a row, and when the
+/// other kind is tried again so that the choice between them does not go stale. Each retrial
+/// costs a factorization of the kind judged dearer and its dearer iterations (a free collar
+/// at 5 ms, where decoupled factors win: a retrial every 16 refreshes cost 9 % of the run),
+/// so each retrial doubles the wait before the next; a retried kind that goes on being
+/// chosen has won (the model's regime changed), and the waits start over.
+#[derive(Clone, Copy, Debug)]
+pub struct KindStreak {
+    /// The kind of the last fresh factors (decoupled or exact), if any were taken. Kept here,
+    /// not read from the factors in hand: a new pattern (a sliding contact's window moved)
+    /// drops those without changing the kind the run is choosing.
+    decoupled: Option<bool>,
+    streak: usize,
+    retrial_after: usize,
+    /// Whether the kind in hand was taken by a retrial.
+    retrying: bool,
+}
+
+/// Refreshes of one kind before the other is first tried again, and the longest wait.
+const FIRST_RETRIAL_AFTER: usize = 16;
+const LONGEST_RETRIAL_AFTER: usize = 512;
+/// Refreshes in a row of a retried kind after which it has won.
+const RETRIAL_WON: usize = 4;
+
+impl Default for KindStreak {
+    fn default() -> Self {
+        KindStreak {
+            decoupled: None,
+            streak: 0,
+            retrial_after: FIRST_RETRIAL_AFTER,
+            retrying: false,
+        }
+    }
+}
+
+impl KindStreak {
+    /// Whether the last fresh factors were the decoupled system's.
+    pub fn last_decoupled(&self) -> bool {
+        self.decoupled == Some(true)
+    }
+
+    /// Whether the next fresh factors should be of the other kind, to try it again.
+    pub fn retrial_due(&self) -> bool {
+        self.streak >= self.retrial_after
+    }
+
+    /// Fresh factors were taken: the decoupled system's, or the exact matrix's.
+    pub fn record(&mut self, decoupled: bool) {
+        let switched = self.decoupled.is_some_and(|d| d != decoupled);
+        self.decoupled = Some(decoupled);
+        if !switched {
+            self.streak += 1;
+            if self.retrying && self.streak >= RETRIAL_WON {
+                self.retrying = false;
+                self.retrial_after = FIRST_RETRIAL_AFTER;
+            }
+            return;
+        }
+        self.retrying = self.retrial_due();
+        if self.retrying {
+            self.retrial_after = (2 * self.retrial_after).min(LONGEST_RETRIAL_AFTER);
+        }
+        self.streak = 0;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -135,5 +201,39 @@ mod tests {
         assert_eq!(refresh_cost(26085, 450, false), 26085.0 / 450.0);
         assert_eq!(refresh_cost(900, 30, true), 15.0);
         assert_eq!(refresh_cost(0, 0, false), 0.0);
+    }
+
+    /// Retrials that lose come ever more rarely (16, 32, 64 … refreshes apart, at most 512),
+    /// whatever other switches happen between them (a step the decoupled factors missed
+    /// takes exact ones); a retried kind that goes on being chosen starts the waits over.
+    #[test]
+    fn retrials_that_lose_back_off_and_one_that_wins_resets_them() {
+        let mut k = KindStreak::default();
+        let mut retrials = Vec::new();
+        for refresh in 0..2000 {
+            if k.retrial_due() {
+                retrials.push(refresh);
+                k.record(false); // the exact matrix retried
+                k.record(true); // it lost: back to decoupled factors at once
+            } else if refresh == 30 {
+                k.record(false); // a missed step's exact factors: not a retrial
+            } else {
+                k.record(true);
+            }
+        }
+        let gaps: Vec<usize> = retrials.windows(2).map(|w| w[1] - w[0]).collect();
+        assert_eq!(retrials[0], 16);
+        assert_eq!(&gaps[..5], &[48, 65, 129, 257, 513], "{retrials:?}");
+        assert!(gaps[5..].iter().all(|&g| g == 513), "{gaps:?}");
+        // A retrial that wins: the exact matrix chosen 4 more times; 16 in a row to the next.
+        while !k.retrial_due() {
+            k.record(true);
+        }
+        (0..5).for_each(|_| k.record(false));
+        assert!(!k.retrial_due());
+        (0..11).for_each(|_| k.record(false));
+        assert!(!k.retrial_due());
+        k.record(false);
+        assert!(k.retrial_due());
     }
 }
