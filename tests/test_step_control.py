@@ -210,6 +210,21 @@ def test_ed_large_steps_keep_their_factors(dt):
         assert stats["newton_iterations"] < 7 * stats["steps"], stats
 
 
+def test_ed_retries_exact_factors_ever_more_rarely_where_decoupled_ones_win():
+    # A collar sliding on a tumbling beam at 5 ms: contact weights change every step, exact
+    # factors last hardly longer than decoupled ones (~2 steps each) and cost dearer solves,
+    # so decoupled ones are chosen (~0.5 refreshes per step). Retrying exact factors every 16
+    # refreshes took 20 exact factorizations in 4 s (9 % of the run's instructions at 2 s);
+    # with waits that double after each retrial that loses, 8 (initial trials, missed steps
+    # and 3 retrials). The bound leaves room for a few more missed steps, not for retrials
+    # at a fixed rate.
+    m = fd.load(EXAMPLES / "free_collar.yaml")
+    m.simulation(scheme="ed", step_control="fixed", dt=5e-3, t_end=4.0)
+    stats = fd.simulate(m).flexdyn.stats
+    assert stats["factorizations"] > 0.3 * stats["steps"], stats  # the premise: many refreshes
+    assert stats["exact_factorizations"] <= 12, stats
+
+
 @pytest.mark.parametrize("scheme", ["ep", "ed"])
 def test_kept_factors_follow_a_spinning_rotor(scheme):
     # A rotor's Newton matrix turns with it (Ωh = 0.02 rad per step here): factors kept in the
