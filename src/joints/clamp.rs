@@ -3,8 +3,10 @@
 //! Also used internally to carry a rigid body whose centre of mass is offset from its node.
 
 use super::kinematics::*;
+use super::stiffness::{self, Stiffness};
 use super::{Attachment, ConstraintLaw, JointState, Rows};
 use crate::math::scalar::Real;
+use crate::math::vec3::V3;
 
 #[derive(Clone, Debug)]
 pub struct Clamp {
@@ -34,6 +36,16 @@ impl ConstraintLaw for Clamp {
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
         points_rate(s, out, 0);
         orientation_rate(s, out, 3);
+    }
+    fn force_stiffness(
+        &self,
+        si: &JointState<f64>,
+        sf: &JointState<f64>,
+        lam: &[f64],
+        k: &mut Stiffness,
+    ) {
+        stiffness::points(sf, V3([lam[0], lam[1], lam[2]]), k);
+        stiffness::orientation(si, sf, &lam[3..6], k);
     }
     fn affine_in_translations(&self) -> bool {
         true

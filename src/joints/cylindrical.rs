@@ -3,7 +3,10 @@
 //! defining φ about the common axis, coordinate 1). Six rows, two relative motions.
 
 use super::prismatic::{slide_gradient, slide_rate, slide_value};
-use super::revolute::{axis_gradient, axis_rate, axis_value, phi_gradient, phi_rate, phi_value};
+use super::revolute::{
+    axis_gradient, axis_rate, axis_value, phi_gradient, phi_rate, phi_value, REVOLUTE_PHI,
+};
+use super::stiffness::{self, Stiffness};
 use super::{Attachment, ConstraintLaw, JointState, Rows};
 use crate::math::scalar::Real;
 
@@ -42,6 +45,17 @@ impl ConstraintLaw for Cylindrical {
         slide_rate(s, 0, out);
         axis_rate(s, out, 3);
         phi_rate(s, 1, &mut out[5]);
+    }
+    fn force_stiffness(
+        &self,
+        si: &JointState<f64>,
+        sf: &JointState<f64>,
+        lam: &[f64],
+        k: &mut Stiffness,
+    ) {
+        stiffness::slide(si, sf, &lam[..3], k);
+        stiffness::axis(si, sf, &lam[3..5], k);
+        stiffness::angle(si, sf, 1, REVOLUTE_PHI, lam[5], k);
     }
 }
 

@@ -144,7 +144,7 @@ pub fn projection_rate<T: Real>(s: &JointState<T>, beta: usize, row: &mut [T]) {
 
 /// The three rows of identical orientations, `e₂ᵏ·e₃ˡ = e₃ᵏ·e₁ˡ = e₁ᵏ·e₂ˡ = 0` (each a
 /// universal-joint constraint, eqs. 11–16), starting at `row`.
-const ORIENTATION_PAIRS: [(usize, usize); 3] = [(1, 2), (2, 0), (0, 1)];
+pub const ORIENTATION_PAIRS: [(usize, usize); 3] = [(1, 2), (2, 0), (0, 1)];
 
 pub fn orientation_value<T: Real>(s: &JointState<T>, out: &mut [T]) {
     for (r, (a, b)) in ORIENTATION_PAIRS.iter().enumerate() {

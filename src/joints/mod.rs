@@ -21,6 +21,7 @@ pub mod revolute;
 pub mod screw;
 pub mod sliding;
 pub mod spherical;
+pub mod stiffness;
 pub mod universal;
 
 use crate::elements::{v3, Kernel, StepCtx};
@@ -112,6 +113,17 @@ pub trait ConstraintLaw {
     fn discrete_gradient<T: Real>(&self, si: &JointState<T>, sf: &JointState<T>, out: &mut Rows<T>);
     /// Rate operator: `Ċ = B [v₁, ω₁, v₂, ω₂, q̇]` (spatial angular velocities).
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>);
+    /// The discrete constraint forces' geometric stiffness `∂(B^Dᵀλ)/∂z` for fixed
+    /// multipliers `lam` (one per row), added to `k`: `z` the end state's spatial variations
+    /// (see [`stiffness`]). Checked against a dual derivative of `discrete_gradient` by the
+    /// law tests.
+    fn force_stiffness(
+        &self,
+        si: &JointState<f64>,
+        sf: &JointState<f64>,
+        lam: &[f64],
+        k: &mut stiffness::Stiffness,
+    );
     /// Whether the positions enter `C` only as `x₂ − x₁` (coincident points, no projection
     /// on a moving axis), so that `B^D` and `B` do not depend on them and their columns are
     /// `∓I`: the tangent's translation columns are then the gradient's own, written in closed
@@ -177,6 +189,15 @@ impl ConstraintLaw for JointLaw {
     }
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
         dispatch!(self, j => j.rate(s, out))
+    }
+    fn force_stiffness(
+        &self,
+        si: &JointState<f64>,
+        sf: &JointState<f64>,
+        lam: &[f64],
+        k: &mut stiffness::Stiffness,
+    ) {
+        dispatch!(self, j => j.force_stiffness(si, sf, lam, k))
     }
     fn affine_in_translations(&self) -> bool {
         dispatch!(self, j => j.affine_in_translations())
@@ -877,6 +898,10 @@ pub mod law_tests {
             let a = affine_defect(law);
             assert!(a < 1e-13, "not affine in the translations: {a:e}");
         }
+        let k = stiffness_defect(law);
+        // Closed form against a dual derivative of the same arithmetic: round-off of O(1)
+        // entries.
+        assert!(k < 1e-13, "force stiffness wrong: {k:e}");
         if let Some(row) = law.coincident_point_rows() {
             let p = point_rows_defect(law, row);
             assert!(
@@ -884,6 +909,53 @@ pub mod law_tests {
                 "rows {row}.. are not the point separation: {p:e}"
             );
         }
+    }
+
+    /// The largest difference, relative to its largest entry, between a law's closed-form
+    /// `force_stiffness` and the dual derivative of `B^D(s_i, s_f)ᵀλ` over the end state's
+    /// spatial variations (`x + δx`, `(I + θ̃) R`, `q + δq`), over random states and
+    /// multipliers.
+    pub fn stiffness_defect<L: ConstraintLaw>(law: &L) -> f64 {
+        use crate::math::scalar::Dual;
+        type D = Dual<NCOL>;
+        let (nq, at) = (law.n_coords(), law.attachments());
+        let mut worst = 0.0f64;
+        for trial in 0..10 {
+            let si = random_state(trial as f64, nq, at);
+            let sf = random_state(trial as f64 + 0.37, nq, at);
+            let lam: Vec<f64> = (0..law.n_rows())
+                .map(|r| ((trial * 7 + r) as f64 * 1.7).cos() * 40.0)
+                .collect();
+            let seeded = |v: &V3<f64>, c0: usize| {
+                V3(std::array::from_fn(|c| D::seeded(v.0[c], Some(c0 + c))))
+            };
+            let side = |k: usize| {
+                let theta = seeded(&V3::zero(), 6 * k + 3);
+                let r = M3::from_f64(&sf.r[k]) + theta.tilde().mul_m(&M3::from_f64(&sf.r[k]));
+                (seeded(&sf.x[k], 6 * k), r)
+            };
+            let ((x0, r0), (x1, r1)) = (side(0), side(1));
+            let q = std::array::from_fn(|c| D::seeded(sf.q[c], Some(12 + c)));
+            let sfd = JointState::new([x0, x1], [r0, r1], q, at);
+            let mut b = [[D::constant(0.0); NCOL]; MAX_ROWS];
+            law.discrete_gradient(&si.lift(), &sfd, &mut b);
+            let mut k = [[0.0; NCOL]; NCOL];
+            law.force_stiffness(&si, &sf, &lam, &mut k);
+            let mut scale = 0.0f64;
+            let mut diff = 0.0f64;
+            for c in 0..NCOL {
+                let mut g = D::constant(0.0);
+                for (r, l) in lam.iter().enumerate() {
+                    g += b[r][c] * *l;
+                }
+                for d in 0..NCOL {
+                    scale = scale.max(g.du[d].abs());
+                    diff = diff.max((g.du[d] - k[c][d]).abs());
+                }
+            }
+            worst = worst.max(diff / scale.max(1.0));
+        }
+        worst
     }
 
     /// For a law that claims coincident-point rows at `row`: the largest difference between

@@ -5,6 +5,7 @@
 //! eq. (10). Identical orientations are the three clamp rows `e₂ᵏ·e₃ˡ = e₃ᵏ·e₁ˡ = e₁ᵏ·e₂ˡ = 0`.
 
 use super::kinematics::*;
+use super::stiffness::{self, Stiffness};
 use super::{Attachment, ConstraintLaw, JointState, Rows};
 use crate::math::scalar::Real;
 
@@ -66,6 +67,16 @@ impl ConstraintLaw for Prismatic {
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
         slide_rate(s, 0, out);
         orientation_rate(s, out, 3);
+    }
+    fn force_stiffness(
+        &self,
+        si: &JointState<f64>,
+        sf: &JointState<f64>,
+        lam: &[f64],
+        k: &mut Stiffness,
+    ) {
+        stiffness::slide(si, sf, &lam[..3], k);
+        stiffness::orientation(si, sf, &lam[3..6], k);
     }
 }
 

@@ -3,8 +3,10 @@
 //! `g_αβ = e_αᵏ·e_βˡ`. Its exact discrete gradient is eq. (22) and the discrete forces eq. (23).
 
 use super::kinematics::*;
+use super::stiffness::{self, Stiffness};
 use super::{Attachment, ConstraintLaw, JointState, Rows};
 use crate::math::scalar::{sinc_half, Real};
+use crate::math::vec3::V3;
 
 #[derive(Clone, Debug)]
 pub struct Revolute {
@@ -41,6 +43,17 @@ impl ConstraintLaw for Revolute {
         points_rate(s, out, 0);
         axis_rate(s, out, 3);
         phi_rate(s, 0, &mut out[5]);
+    }
+    fn force_stiffness(
+        &self,
+        si: &JointState<f64>,
+        sf: &JointState<f64>,
+        lam: &[f64],
+        k: &mut Stiffness,
+    ) {
+        stiffness::points(sf, V3([lam[0], lam[1], lam[2]]), k);
+        stiffness::axis(si, sf, &lam[3..5], k);
+        stiffness::angle(si, sf, 0, REVOLUTE_PHI, lam[5], k);
     }
     fn affine_in_translations(&self) -> bool {
         true

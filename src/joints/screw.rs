@@ -3,6 +3,7 @@
 //! (m/rad: the advance per radian of turn, so a full turn advances 2π p).
 
 use super::cylindrical::Cylindrical;
+use super::stiffness::Stiffness;
 use super::{Attachment, ConstraintLaw, JointState, Rows};
 use crate::math::scalar::Real;
 
@@ -42,6 +43,16 @@ impl ConstraintLaw for Screw {
         self.cylinder.rate(s, out);
         out[6][12] = T::one();
         out[6][13] = T::cst(-self.pitch);
+    }
+    fn force_stiffness(
+        &self,
+        si: &JointState<f64>,
+        sf: &JointState<f64>,
+        lam: &[f64],
+        k: &mut Stiffness,
+    ) {
+        // Row 6 is linear in the coordinates: no stiffness.
+        self.cylinder.force_stiffness(si, sf, &lam[..6], k);
     }
 }
 

@@ -102,6 +102,21 @@ impl ConstraintLaw for ContactLaw {
             SlidingKind::Clamp => orientation_rate(s, out, 3),
         }
     }
+    fn force_stiffness(
+        &self,
+        si: &JointState<f64>,
+        sf: &JointState<f64>,
+        lam: &[f64],
+        k: &mut super::stiffness::Stiffness,
+    ) {
+        use super::stiffness;
+        stiffness::points(sf, V3([lam[0], lam[1], lam[2]]), k);
+        match self.kind {
+            SlidingKind::Point => {}
+            SlidingKind::Screw => stiffness::dot_pair(si, sf, 1, 2, lam[3], k),
+            SlidingKind::Clamp => stiffness::orientation(si, sf, &lam[3..6], k),
+        }
+    }
 }
 
 /// How far (in elements) a sliding contact point may pass its window's middle element before

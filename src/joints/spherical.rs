@@ -1,8 +1,10 @@
 //! Spherical joint: the attachment points of both nodes coincide (3 constraints).
 
 use super::kinematics::*;
+use super::stiffness::{self, Stiffness};
 use super::{Attachment, ConstraintLaw, JointState, Rows};
 use crate::math::scalar::Real;
+use crate::math::vec3::V3;
 
 #[derive(Clone, Debug)]
 pub struct Spherical {
@@ -29,6 +31,15 @@ impl ConstraintLaw for Spherical {
     }
     fn rate<T: Real>(&self, s: &JointState<T>, out: &mut Rows<T>) {
         points_rate(s, out, 0);
+    }
+    fn force_stiffness(
+        &self,
+        _si: &JointState<f64>,
+        sf: &JointState<f64>,
+        lam: &[f64],
+        k: &mut Stiffness,
+    ) {
+        stiffness::points(sf, V3([lam[0], lam[1], lam[2]]), k);
     }
     fn affine_in_translations(&self) -> bool {
         true

@@ -10,8 +10,10 @@
 
 use super::kinematics::*;
 use super::revolute::{angle_gradient, angle_rate, angle_value, AngleTerms};
+use super::stiffness::{self, Stiffness};
 use super::{Attachment, ConstraintLaw, JointState, Rows};
 use crate::math::scalar::Real;
+use crate::math::vec3::V3;
 
 /// φ₁: `g₁₃ sin φ₁ − g₂₃ cos φ₁ = 0`.
 const PHI1: AngleTerms = ((0, 2, 1.0), (1, 2, -1.0));
@@ -56,6 +58,18 @@ impl ConstraintLaw for Universal {
         add_rotation_pair(&mut out[3], dot_h(s, 2, 2), T::one());
         angle_rate(s, 0, PHI1, &mut out[4]);
         angle_rate(s, 1, PHI2, &mut out[5]);
+    }
+    fn force_stiffness(
+        &self,
+        si: &JointState<f64>,
+        sf: &JointState<f64>,
+        lam: &[f64],
+        k: &mut Stiffness,
+    ) {
+        stiffness::points(sf, V3([lam[0], lam[1], lam[2]]), k);
+        stiffness::dot_pair(si, sf, 2, 2, lam[3], k);
+        stiffness::angle(si, sf, 0, PHI1, lam[4], k);
+        stiffness::angle(si, sf, 1, PHI2, lam[5], k);
     }
     fn affine_in_translations(&self) -> bool {
         true
