@@ -251,9 +251,9 @@ pub trait StepEquations<const NC: usize>: Kernel + Sized {
 /// joint under ED: 2×12 + 2×2 + 2×7 = 42).
 const MAX_SPLIT_LOCAL: usize = 44;
 
-/// What [`split_pass`] writes of the tangent.
+/// What [`split_pass`] (or a closed-form tangent) writes of the tangent.
 #[derive(Clone, Copy, PartialEq)]
-enum Tangent {
+pub enum Tangent {
     /// The exact tangent (and the residual from the same pass).
     Exact,
     /// ED's decoupled surrogate (see [`evaluate_constraint_decoupled`]); no residual.
@@ -299,14 +299,24 @@ pub fn evaluate_constraint_decoupled<K: StepEquations<NC>, const NC: usize>(
         return eval_kernel(k, ctx, y, res, Some((vals, pos)));
     }
     eval_kernel(k, ctx, y, res, None);
-    let ep = StepCtx {
+    split(
+        k,
+        &ep_equations(ctx),
+        y,
+        (None, vals, pos),
+        Tangent::Decoupled,
+    );
+}
+
+/// The step `ctx` with EP's equations on its block's layout (ED's decoupled surrogate).
+pub fn ep_equations<'a>(ctx: &StepCtx<'a>) -> StepCtx<'a> {
+    StepCtx {
         layout: Layout {
             scheme: Scheme::Ep,
             ..ctx.layout
         },
         ..*ctx
-    };
-    split(k, &ep, y, (None, vals, pos), Tangent::Decoupled);
+    }
 }
 
 /// [`split_pass`] with widths and buffers no larger than needed (dual buffers are zeroed on
@@ -409,27 +419,36 @@ fn add_dual_columns<const W: usize>(
 ) {
     let n = rd.len();
     for (i, r) in rd.iter().enumerate() {
-        match (tangent, jump_of[i]) {
-            (Tangent::Decoupled, Some(ji)) => {
-                for (d, &l) in slots.iter().enumerate() {
-                    let v = r.du[d];
-                    let jl = jump_of[l].expect("a geometric slot has a jump under ED");
-                    vals[pos[ji * n + l]] -= (4.0 / 9.0) * v;
-                    vals[pos[ji * n + jl]] += v / 9.0;
-                }
-            }
-            _ => {
-                for (d, &l) in slots.iter().enumerate() {
-                    vals[pos[i * n + l]] += r.du[d];
-                }
-            }
+        for (d, &l) in slots.iter().enumerate() {
+            add_geometric_entry(tangent, jump_of, n, (i, l, r.du[d]), vals, pos);
         }
+    }
+}
+
+/// Adds `v = ∂res_i/∂y_l` of a geometric slot `l` to a block of `n` unknowns: where it is, or
+/// for ED's decoupled surrogate, on a motion row, moved to its jump row as a linear stiffness
+/// enters it (`−4/9` on the increment, `1/9` on its jump).
+pub fn add_geometric_entry(
+    tangent: Tangent,
+    jump_of: &[Option<usize>],
+    n: usize,
+    (i, l, v): (usize, usize, f64),
+    vals: &mut [f64],
+    pos: &[usize],
+) {
+    match (tangent, jump_of[i]) {
+        (Tangent::Decoupled, Some(ji)) => {
+            let jl = jump_of[l].expect("a geometric slot has a jump under ED");
+            vals[pos[ji * n + l]] -= (4.0 / 9.0) * v;
+            vals[pos[ji * n + jl]] += v / 9.0;
+        }
+        _ => vals[pos[i * n + l]] += v,
     }
 }
 
 /// The map's node blocks as values, and each motion slot's jump slot into `jump_of` (for
 /// the decoupled surrogate).
-fn node_values<T: Real>(
+pub fn node_values<T: Real>(
     map: &ColumnMap<T>,
     jump_of: &mut [Option<usize>],
 ) -> ([NodeColumns<f64>; MAX_MAP_NODES], usize) {

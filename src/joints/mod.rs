@@ -12,6 +12,7 @@
 //! them "spatially consistent" (ed-scheme-notes §4).
 
 pub mod clamp;
+mod closed_tangent;
 pub mod cylindrical;
 pub mod equations;
 pub mod friction;
@@ -29,7 +30,7 @@ use crate::math::layout::Layout;
 use crate::math::rotation::rotate_material;
 use crate::math::scalar::Real;
 use crate::math::vec3::{M3, V3};
-use equations::{ColumnMap, ConstraintTerms, CoordColumn, NodeColumns, StepEquations};
+use equations::{ColumnMap, ConstraintTerms, CoordColumn, NodeColumns, StepEquations, Tangent};
 
 /// Most constraint rows of one joint (the screw joint's 7).
 pub const MAX_ROWS: usize = 8;
@@ -685,6 +686,8 @@ impl Kernel for JointKernel {
         self.equations_residual(ctx, y, res)
     }
 
+    /// EP's time steps in closed form ([`closed_tangent`]); ED's and statics' tangents by
+    /// the dual pass.
     fn evaluate(
         &self,
         ctx: &StepCtx,
@@ -692,9 +695,16 @@ impl Kernel for JointKernel {
         res: &mut [f64],
         jac: Option<(&mut [f64], &[usize])>,
     ) {
-        equations::evaluate_constraint(self, ctx, y, res, jac)
+        match jac {
+            Some(jac) if !ctx.ed() && !ctx.is_static() => {
+                self.evaluate_closed(ctx, y, Some(res), jac, Tangent::Exact)
+            }
+            jac => equations::evaluate_constraint(self, ctx, y, res, jac),
+        }
     }
 
+    /// ED's residual and, from EP's closed-form tangent, the decoupled surrogate
+    /// ([`equations::evaluate_constraint_decoupled`] says what it holds).
     fn evaluate_decoupled(
         &self,
         ctx: &StepCtx,
@@ -703,7 +713,9 @@ impl Kernel for JointKernel {
         vals: &mut [f64],
         pos: &[usize],
     ) {
-        equations::evaluate_constraint_decoupled(self, ctx, y, res, vals, pos)
+        crate::elements::eval_kernel(self, ctx, y, res, None);
+        let ep = equations::ep_equations(ctx);
+        self.evaluate_closed(&ep, y, None, (vals, pos), Tangent::Decoupled)
     }
 }
 
@@ -1136,6 +1148,83 @@ mod kernel_tests {
                     let e = tangent_error(&k, &ctx, &y);
                     // Same bound as the other kernels: FD truncation and round-off, relative to |J|.
                     assert!(e < 1e-7, "{kind}: tangent error {e:e}");
+                }
+            }
+        }
+    }
+
+    /// The closed-form tangent ([`closed_tangent`]) is the dual pass's, EP's and ED's
+    /// decoupled surrogate alike, for every law to a node and to the ground at a state with
+    /// loaded multipliers: the same derivatives by other arithmetic, so round-off only.
+    #[test]
+    fn closed_form_tangent_is_the_dual_pass_tangent() {
+        let state = generic_state();
+        for scheme in [Scheme::Ep, Scheme::Ed] {
+            for law in laws() {
+                for ground in [false, true] {
+                    let (nq, nr) = (law.n_coords(), law.n_rows());
+                    let layout = Layout::new(scheme, 2, nq, nr);
+                    let k = JointKernel::new(
+                        "j".into(),
+                        law.clone(),
+                        generic_sides(ground),
+                        (0..nq).collect(),
+                        0,
+                        &layout,
+                    );
+                    let ctx = StepCtx {
+                        layout,
+                        h: 0.01,
+                        t_i: 0.1,
+                        t_f: 0.11,
+                        s: 30.0,
+                        state: &state,
+                        gravity: V3([0.0; 3]),
+                        statics: None,
+                    };
+                    let y: Vec<f64> = (0..layout.n_unknowns())
+                        .map(|i| {
+                            0.02 * ((i as f64) * 1.3).sin() + 0.5 * f64::from(i >= layout.mult(0))
+                        })
+                        .collect();
+                    let n = k.unknowns().len();
+                    let pos: Vec<usize> = (0..n * n).collect();
+                    let (mut jc, mut jd) = (vec![0.0; n * n], vec![0.0; n * n]);
+                    let (mut rc, mut rd) = (vec![0.0; y.len()], vec![0.0; y.len()]);
+                    if scheme == Scheme::Ep {
+                        k.evaluate(&ctx, &y, &mut rc, Some((&mut jc, &pos)));
+                        equations::evaluate_constraint(
+                            &k,
+                            &ctx,
+                            &y,
+                            &mut rd,
+                            Some((&mut jd, &pos)),
+                        );
+                    } else {
+                        k.evaluate_decoupled(&ctx, &y, &mut rc, &mut jc, &pos);
+                        equations::evaluate_constraint_decoupled(
+                            &k, &ctx, &y, &mut rd, &mut jd, &pos,
+                        );
+                    }
+                    let kind = format!("{scheme:?} {law:?} ground={ground}");
+                    let scale = jd.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                    let worst = jc
+                        .iter()
+                        .zip(&jd)
+                        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+                    assert!(
+                        worst <= 1e-13 * scale,
+                        "{kind}: tangents differ by {worst:e} of {scale:e}"
+                    );
+                    let rscale = rd.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                    let rworst = rc
+                        .iter()
+                        .zip(&rd)
+                        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+                    assert!(
+                        rworst <= 1e-14 * rscale,
+                        "{kind}: residuals differ by {rworst:e}"
+                    );
                 }
             }
         }
