@@ -13,17 +13,30 @@
 
 use super::equations::{
     add_constraint_equations, add_geometric_entry, add_linear_columns, add_translation_columns,
-    node_values, ColumnMap, ConstraintTerms, StepEquations, Tangent,
+    node_values, ColumnMap, ConstraintTerms, StepEquations, Tangent, MAX_SPLIT_LOCAL,
 };
 use super::stiffness::Stiffness;
 use super::{zero_rows, ConstraintLaw, JointKernel, JointState, MAX_ROWS, NCOL};
-use crate::elements::{StepCtx, MAX_LOCAL};
+use crate::elements::StepCtx;
 use crate::math::rotation::cayley_tangent;
 use crate::math::vec3::{M3, V3};
 
-/// Rows of the geometric derivative: the force columns `[x₁, θ₁, x₂, θ₂, q]`, then the
-/// constraint rows.
-type Geometric = [[f64; NCOL]; NCOL + MAX_ROWS];
+/// The geometric derivative's rows: the force columns `[x₁, θ₁, x₂, θ₂, q]` (the force
+/// stiffness) and the constraint rows.
+struct Geometric {
+    force: Stiffness,
+    constraint: [[f64; NCOL]; MAX_ROWS],
+}
+
+impl Geometric {
+    fn row(&self, r: usize) -> &[f64; NCOL] {
+        if r < NCOL {
+            &self.force[r]
+        } else {
+            &self.constraint[r - NCOL]
+        }
+    }
+}
 
 impl JointKernel {
     /// EP's step equations at the block's unknowns `y` (global): the residual into `res` (if
@@ -62,7 +75,7 @@ impl JointKernel {
             rates: None,
         };
         if let Some(res) = res {
-            let mut rl = [0.0; MAX_LOCAL];
+            let mut rl = [0.0; MAX_SPLIT_LOCAL];
             add_constraint_equations(ctx, &map, &terms, yl, &mut rl[..n]);
             for (&g, r) in self.unknowns.iter().zip(&rl[..n]) {
                 res[g] += r;
@@ -72,8 +85,10 @@ impl JointKernel {
         if self.translations_linear() {
             add_translation_columns(ctx, &map, &terms, n, vals, pos);
         }
-        let mut jump_of = [None; MAX_LOCAL];
-        node_values(&map, &mut jump_of);
+        let mut jump_of = [None; MAX_SPLIT_LOCAL];
+        if tangent == Tangent::Decoupled {
+            node_values(&map, &mut jump_of);
+        }
         let d = self.geometric_derivative(ctx, (&si, &sf), &rs, yl);
         self.for_each_geometric_entry(&d, |i, l, v| {
             add_geometric_entry(tangent, &jump_of[..n], n, (i, l, v), vals, pos)
@@ -91,27 +106,28 @@ impl JointKernel {
     ) -> Geometric {
         let nr = self.n_rows();
         let lam = self.multipliers(ctx, yl, false);
-        let mut k: Stiffness = [[0.0; NCOL]; NCOL];
-        self.law.force_stiffness(si, sf, &lam[..nr], &mut k);
-        let mut d: Geometric = [[0.0; NCOL]; NCOL + MAX_ROWS];
-        d[..NCOL].copy_from_slice(&k);
-        let bf = self.rate_rows_at(sf);
-        for (row, b) in d[NCOL..NCOL + nr].iter_mut().zip(&bf) {
-            for (v, x) in row.iter_mut().zip(b) {
-                *v = ctx.s * x;
+        let mut d = Geometric {
+            force: [[0.0; NCOL]; NCOL],
+            constraint: [[0.0; NCOL]; MAX_ROWS],
+        };
+        self.law.force_stiffness(si, sf, &lam[..nr], &mut d.force);
+        self.law.rate(sf, &mut d.constraint);
+        for row in &mut d.constraint[..nr] {
+            for v in row.iter_mut() {
+                *v *= ctx.s;
             }
         }
-        for side in 0..2 {
+        for (side, r) in rs.iter().enumerate() {
             if self.slots[side].delta.is_none() {
                 continue;
             }
             let th = 6 * side + 3;
-            let gamma = sf.r[side].mul_m(&cayley_tangent(&rs[side]));
-            for row in d[..NCOL + nr].iter_mut() {
+            let gamma = sf.r[side].mul_m(&cayley_tangent(r));
+            for row in d.force.iter_mut().chain(&mut d.constraint[..nr]) {
                 let v = gamma.tmul_v(&V3([row[th], row[th + 1], row[th + 2]]));
                 row[th..th + 3].copy_from_slice(&v.0);
             }
-            turn_rows(&mut d, th, &si.r[side]);
+            turn_rows(&mut d.force, th, &si.r[side]);
         }
         d
     }
@@ -146,20 +162,24 @@ impl JointKernel {
             rows[nr] = (self.mult_slot + per * r, NCOL + r);
             nr += 1;
         }
+        // Structural zeros (the forces on a coincident point's translations) are skipped.
         for &(i, dr) in &rows[..nr] {
             for &(l, dc) in &cols[..nc] {
-                f(i, l, d[dr][dc]);
+                let v = d.row(dr)[dc];
+                if v != 0.0 {
+                    f(i, l, v);
+                }
             }
         }
     }
 }
 
 /// Moment rows `th..th+3` of `d` as they act on the material unknowns: `R_iᵀ` of them.
-fn turn_rows(d: &mut Geometric, th: usize, r_i: &M3<f64>) {
-    for col in 0..NCOL {
-        let v = r_i.tmul_v(&V3([d[th][col], d[th + 1][col], d[th + 2][col]]));
-        for c in 0..3 {
-            d[th + c][col] = v.0[c];
-        }
+fn turn_rows(d: &mut Stiffness, th: usize, r_i: &M3<f64>) {
+    let [a, b, c] = &mut d[th..th + 3] else {
+        unreachable!("three moment rows")
+    };
+    for ((x, y), z) in a.iter_mut().zip(b.iter_mut()).zip(c.iter_mut()) {
+        [*x, *y, *z] = r_i.tmul_v(&V3([*x, *y, *z])).0;
     }
 }

@@ -249,7 +249,7 @@ pub trait StepEquations<const NC: usize>: Kernel + Sized {
 
 /// Largest local block [`evaluate_constraint`] differentiates by the split (a two-node screw
 /// joint under ED: 2×12 + 2×2 + 2×7 = 42).
-const MAX_SPLIT_LOCAL: usize = 44;
+pub const MAX_SPLIT_LOCAL: usize = 44;
 
 /// What [`split_pass`] (or a closed-form tangent) writes of the tangent.
 #[derive(Clone, Copy, PartialEq)]
@@ -428,6 +428,7 @@ fn add_dual_columns<const W: usize>(
 /// Adds `v = ∂res_i/∂y_l` of a geometric slot `l` to a block of `n` unknowns: where it is, or
 /// for ED's decoupled surrogate, on a motion row, moved to its jump row as a linear stiffness
 /// enters it (`−4/9` on the increment, `1/9` on its jump).
+#[inline(always)]
 pub fn add_geometric_entry(
     tangent: Tangent,
     jump_of: &[Option<usize>],

@@ -955,14 +955,14 @@ pub mod law_tests {
             law.force_stiffness(&si, &sf, &lam, &mut k);
             let mut scale = 0.0f64;
             let mut diff = 0.0f64;
-            for c in 0..NCOL {
+            for (c, k_row) in k.iter().enumerate() {
                 let mut g = D::constant(0.0);
                 for (r, l) in lam.iter().enumerate() {
                     g += b[r][c] * *l;
                 }
-                for d in 0..NCOL {
-                    scale = scale.max(g.du[d].abs());
-                    diff = diff.max((g.du[d] - k[c][d]).abs());
+                for (dual, closed) in g.du.iter().zip(k_row) {
+                    scale = scale.max(dual.abs());
+                    diff = diff.max((dual - closed).abs());
                 }
             }
             worst = worst.max(diff / scale.max(1.0));

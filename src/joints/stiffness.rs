@@ -187,7 +187,7 @@ pub fn orientation(si: &JointState<f64>, sf: &JointState<f64>, lam: &[f64], k: &
 /// The three separation rows of a prismatic or cylindrical joint
 /// ([`super::prismatic::slide_gradient`]; the coordinate's column is constant).
 pub fn slide(si: &JointState<f64>, sf: &JointState<f64>, lam: &[f64], k: &mut Stiffness) {
-    for beta in 0..3 {
-        projection(si, sf, beta, lam[beta], k);
+    for (beta, l) in lam.iter().enumerate().take(3) {
+        projection(si, sf, beta, *l, k);
     }
 }
