@@ -1,4 +1,4 @@
-//! A pair joint's EP step equations with their tangent in closed form, no dual pass: the
+//! A joint's EP step equations with their tangent in closed form, no dual pass: the
 //! multipliers' columns `s B^Dᵀ` and the translations' `s B` as the dual pass writes them
 //! ([`equations::add_linear_columns`], [`equations::add_translation_columns`]), and the
 //! geometric columns from
@@ -8,12 +8,14 @@
 //!
 //! each mapped to the unknowns: a node's material rotation `r` moves its end triad by
 //! `θ = R_f T(r) δr` (`rotation::cayley_tangent`), and the moments act on it through `R_iᵀ`.
-//! EP's time steps and ED's decoupled surrogate (EP's equations on ED's block) use it; ED's
-//! exact tangent and statics keep the dual pass ([`equations::evaluate_constraint`]).
+//! EP's time steps and ED's decoupled surrogate (EP's equations on ED's block) use it, for
+//! pair joints here and for a sliding joint's node shares (`sliding::NodeShare`, whose
+//! weights add their ζ columns); ED's exact tangent and statics keep the dual pass
+//! ([`equations::evaluate_constraint`]).
 
 use super::equations::{
     add_constraint_equations, add_geometric_entry, add_linear_columns, add_translation_columns,
-    node_values, ColumnMap, ConstraintTerms, StepEquations, Tangent, MAX_SPLIT_LOCAL,
+    ColumnMap, ConstraintTerms, StepEquations, Tangent, MAX_SPLIT_LOCAL,
 };
 use super::stiffness::Stiffness;
 use super::{zero_rows, ConstraintLaw, JointKernel, JointState, MAX_ROWS, NCOL};
@@ -21,20 +23,148 @@ use crate::elements::StepCtx;
 use crate::math::rotation::cayley_tangent;
 use crate::math::vec3::{M3, V3};
 
-/// The geometric derivative's rows: the force columns `[x₁, θ₁, x₂, θ₂, q]` (the force
-/// stiffness) and the constraint rows.
-struct Geometric {
-    force: Stiffness,
-    constraint: [[f64; NCOL]; MAX_ROWS],
+/// The geometric derivative of a block's equations over the end state's spatial
+/// variations `[x₁, θ₁, x₂, θ₂, q]`: its force rows (the force columns in the same order)
+/// and its constraint rows.
+pub struct Geometric {
+    pub force: Stiffness,
+    pub constraint: [[f64; NCOL]; MAX_ROWS],
 }
 
 impl Geometric {
+    pub fn zero() -> Self {
+        Geometric {
+            force: [[0.0; NCOL]; NCOL],
+            constraint: [[0.0; NCOL]; MAX_ROWS],
+        }
+    }
+
     fn row(&self, r: usize) -> &[f64; NCOL] {
         if r < NCOL {
             &self.force[r]
         } else {
             &self.constraint[r - NCOL]
         }
+    }
+}
+
+/// One side's unknowns in a block: the local slot of its `[Δx, r]`, its triads at the start
+/// and end of the step and its material rotation increment `r`.
+#[derive(Clone, Copy)]
+pub struct SideFrame {
+    pub delta: usize,
+    pub r_i: M3<f64>,
+    pub r_f: M3<f64>,
+    pub r: V3<f64>,
+}
+
+/// Where a block's geometric derivative goes: side k's rows and columns at `6k`, the
+/// coordinates' at `12 + c`, the constraint rows at the multipliers' slots.
+pub struct BlockColumns<'a> {
+    pub sides: [Option<SideFrame>; 2],
+    /// Local slots of the coordinates.
+    pub coords: &'a [usize],
+    pub mult: usize,
+    /// Slots per multiplier and coordinate: 2 on an ED block (the jump follows), else 1.
+    pub per: usize,
+    pub n_rows: usize,
+    /// Whether the translations' columns are written by `add_translation_columns`.
+    pub translations_linear: bool,
+}
+
+impl BlockColumns<'_> {
+    /// Adds `d` to the tangent of a block of `n` unknowns: each side's rotation columns
+    /// turned to its material unknowns (`θ = R_f T(r) δr`) and its moment rows through
+    /// `R_iᵀ`; exactly or as ED's decoupled surrogate ([`add_geometric_entry`]).
+    pub fn add(
+        &self,
+        d: &mut Geometric,
+        tangent: Tangent,
+        n: usize,
+        vals: &mut [f64],
+        pos: &[usize],
+    ) {
+        for (k, side) in self.sides.iter().enumerate() {
+            let Some(side) = side else { continue };
+            let th = 6 * k + 3;
+            let gamma = side.r_f.mul_m(&cayley_tangent(&side.r));
+            for row in d.force.iter_mut().chain(&mut d.constraint[..self.n_rows]) {
+                let v = gamma.tmul_v(&V3([row[th], row[th + 1], row[th + 2]]));
+                row[th..th + 3].copy_from_slice(&v.0);
+            }
+            turn_rows(&mut d.force, th, &side.r_i);
+        }
+        let jump_of = self.jumps(tangent);
+        self.for_each_entry(d, |i, l, v| {
+            add_geometric_entry(tangent, &jump_of[..n], n, (i, l, v), vals, pos)
+        });
+    }
+
+    /// Each motion slot's jump slot on an ED block (the jumps follow the increments), for
+    /// the decoupled surrogate.
+    fn jumps(&self, tangent: Tangent) -> [Option<usize>; MAX_SPLIT_LOCAL] {
+        let mut jump_of = [None; MAX_SPLIT_LOCAL];
+        if tangent == Tangent::Decoupled {
+            for side in self.sides.iter().flatten() {
+                for c in 0..6 {
+                    jump_of[side.delta + c] = Some(side.delta + 6 + c);
+                }
+            }
+            for &slot in self.coords {
+                jump_of[slot] = Some(slot + 1);
+            }
+        }
+        jump_of
+    }
+
+    /// Calls `f(local row, local geometric slot, value)` for each entry of `d`.
+    fn for_each_entry(&self, d: &Geometric, mut f: impl FnMut(usize, usize, f64)) {
+        let first = if self.translations_linear { 3 } else { 0 };
+        // (local slot, derivative row) of the rows; (local slot, derivative column) of the
+        // geometric unknowns.
+        let mut rows = [(0, 0); NCOL + MAX_ROWS];
+        let mut cols = [(0, 0); NCOL];
+        let (mut nr, mut nc) = (0, 0);
+        for (k, side) in self.sides.iter().enumerate() {
+            if let Some(side) = side {
+                for c in 0..6 {
+                    rows[nr] = (side.delta + c, 6 * k + c);
+                    nr += 1;
+                }
+                for c in first..6 {
+                    cols[nc] = (side.delta + c, 6 * k + c);
+                    nc += 1;
+                }
+            }
+        }
+        for (c, &slot) in self.coords.iter().enumerate() {
+            rows[nr] = (slot, 12 + c);
+            cols[nc] = (slot, 12 + c);
+            (nr, nc) = (nr + 1, nc + 1);
+        }
+        for r in 0..self.n_rows {
+            rows[nr] = (self.mult + self.per * r, NCOL + r);
+            nr += 1;
+        }
+        // Structural zeros (the forces on a coincident point's translations) are skipped.
+        for &(i, dr) in &rows[..nr] {
+            for &(l, dc) in &cols[..nc] {
+                let v = d.row(dr)[dc];
+                if v != 0.0 {
+                    f(i, l, v);
+                }
+            }
+        }
+    }
+}
+
+/// Moment rows `th..th+3` of `d` as they act on the material unknowns: `R_iᵀ` of them.
+fn turn_rows(d: &mut Stiffness, th: usize, r_i: &M3<f64>) {
+    let [a, b, c] = &mut d[th..th + 3] else {
+        unreachable!("three moment rows")
+    };
+    for ((x, y), z) in a.iter_mut().zip(b.iter_mut()).zip(c.iter_mut()) {
+        [*x, *y, *z] = r_i.tmul_v(&V3([*x, *y, *z])).0;
     }
 }
 
@@ -85,31 +215,37 @@ impl JointKernel {
         if self.translations_linear() {
             add_translation_columns(ctx, &map, &terms, n, vals, pos);
         }
-        let mut jump_of = [None; MAX_SPLIT_LOCAL];
-        if tangent == Tangent::Decoupled {
-            node_values(&map, &mut jump_of);
-        }
-        let d = self.geometric_derivative(ctx, (&si, &sf), &rs, yl);
-        self.for_each_geometric_entry(&d, |i, l, v| {
-            add_geometric_entry(tangent, &jump_of[..n], n, (i, l, v), vals, pos)
-        });
+        let mut d = self.geometric_derivative(ctx, (&si, &sf), yl);
+        let coord_slots: [usize; 2] = std::array::from_fn(|c| self.coord_slot + self.per * c);
+        let frame = |k: usize| {
+            self.slots[k].delta.map(|delta| SideFrame {
+                delta,
+                r_i: si.r[k],
+                r_f: sf.r[k],
+                r: rs[k],
+            })
+        };
+        let block = BlockColumns {
+            sides: [frame(0), frame(1)],
+            coords: &coord_slots[..self.coords.len()],
+            mult: self.mult_slot,
+            per: self.per,
+            n_rows: nr,
+            translations_linear: self.translations_linear(),
+        };
+        block.add(&mut d, tangent, n, vals, pos);
     }
 
-    /// `∂(B^Dᵀ sλ, s C_f)/∂` the end state's variations, with each node's rotation columns
-    /// turned to its material unknowns and its moment rows through `R_iᵀ`.
+    /// `∂(B^Dᵀ sλ, s C_f)/∂` the end state's spatial variations.
     fn geometric_derivative(
         &self,
         ctx: &StepCtx,
         (si, sf): (&JointState<f64>, &JointState<f64>),
-        rs: &[V3<f64>; 2],
         yl: &[f64],
     ) -> Geometric {
         let nr = self.n_rows();
         let lam = self.multipliers(ctx, yl, false);
-        let mut d = Geometric {
-            force: [[0.0; NCOL]; NCOL],
-            constraint: [[0.0; NCOL]; MAX_ROWS],
-        };
+        let mut d = Geometric::zero();
         self.law.force_stiffness(si, sf, &lam[..nr], &mut d.force);
         self.law.rate(sf, &mut d.constraint);
         for row in &mut d.constraint[..nr] {
@@ -117,69 +253,6 @@ impl JointKernel {
                 *v *= ctx.s;
             }
         }
-        for (side, r) in rs.iter().enumerate() {
-            if self.slots[side].delta.is_none() {
-                continue;
-            }
-            let th = 6 * side + 3;
-            let gamma = sf.r[side].mul_m(&cayley_tangent(r));
-            for row in d.force.iter_mut().chain(&mut d.constraint[..nr]) {
-                let v = gamma.tmul_v(&V3([row[th], row[th + 1], row[th + 2]]));
-                row[th..th + 3].copy_from_slice(&v.0);
-            }
-            turn_rows(&mut d.force, th, &si.r[side]);
-        }
         d
-    }
-
-    /// Calls `f(local row, local geometric slot, value)` for each entry of the derivative.
-    fn for_each_geometric_entry(&self, d: &Geometric, mut f: impl FnMut(usize, usize, f64)) {
-        let first = if self.translations_linear() { 3 } else { 0 };
-        let per = self.per;
-        // (local slot, derivative row) of the rows; (local slot, derivative column) of the
-        // geometric unknowns.
-        let mut rows = [(0, 0); NCOL + MAX_ROWS];
-        let mut cols = [(0, 0); NCOL];
-        let (mut nr, mut nc) = (0, 0);
-        for (side, s) in self.slots.iter().enumerate() {
-            if let Some(delta) = s.delta {
-                for c in 0..6 {
-                    rows[nr] = (delta + c, 6 * side + c);
-                    nr += 1;
-                }
-                for c in first..6 {
-                    cols[nc] = (delta + c, 6 * side + c);
-                    nc += 1;
-                }
-            }
-        }
-        for c in 0..self.coords.len() {
-            rows[nr] = (self.coord_slot + per * c, 12 + c);
-            cols[nc] = (self.coord_slot + per * c, 12 + c);
-            (nr, nc) = (nr + 1, nc + 1);
-        }
-        for r in 0..self.n_rows() {
-            rows[nr] = (self.mult_slot + per * r, NCOL + r);
-            nr += 1;
-        }
-        // Structural zeros (the forces on a coincident point's translations) are skipped.
-        for &(i, dr) in &rows[..nr] {
-            for &(l, dc) in &cols[..nc] {
-                let v = d.row(dr)[dc];
-                if v != 0.0 {
-                    f(i, l, v);
-                }
-            }
-        }
-    }
-}
-
-/// Moment rows `th..th+3` of `d` as they act on the material unknowns: `R_iᵀ` of them.
-fn turn_rows(d: &mut Stiffness, th: usize, r_i: &M3<f64>) {
-    let [a, b, c] = &mut d[th..th + 3] else {
-        unreachable!("three moment rows")
-    };
-    for ((x, y), z) in a.iter_mut().zip(b.iter_mut()).zip(c.iter_mut()) {
-        [*x, *y, *z] = r_i.tmul_v(&V3([*x, *y, *z])).0;
     }
 }

@@ -449,7 +449,7 @@ pub fn add_geometric_entry(
 
 /// The map's node blocks as values, and each motion slot's jump slot into `jump_of` (for
 /// the decoupled surrogate).
-pub fn node_values<T: Real>(
+fn node_values<T: Real>(
     map: &ColumnMap<T>,
     jump_of: &mut [Option<usize>],
 ) -> ([NodeColumns<f64>; MAX_MAP_NODES], usize) {

@@ -12,7 +12,7 @@
 //! them "spatially consistent" (ed-scheme-notes §4).
 
 pub mod clamp;
-mod closed_tangent;
+pub(crate) mod closed_tangent;
 pub mod cylindrical;
 pub mod equations;
 pub mod friction;

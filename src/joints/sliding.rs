@@ -23,6 +23,7 @@
 //! (one either side): the Newton matrix's pattern follows the contact point as it travels, and
 //! [`SlidingJoint::place_window`] moves it between steps.
 
+use super::closed_tangent::{BlockColumns, Geometric, SideFrame};
 use super::equations::*;
 use super::kinematics::*;
 use super::{
@@ -33,7 +34,7 @@ use crate::beam::shape::MAX_NODES;
 use crate::elements::{v3, Kernel, StepCtx};
 use crate::math::layout::Layout;
 use crate::math::rotation::rotate_material;
-use crate::math::scalar::Real;
+use crate::math::scalar::{Dual, Real};
 use crate::math::vec3::{M3, V3};
 use crate::state::State;
 
@@ -233,6 +234,8 @@ impl Kernel for NodeShare<'_> {
         self.equations_residual(ctx, y, res)
     }
 
+    /// EP's time steps in closed form ([`NodeShare::evaluate_closed`]); ED's and statics'
+    /// tangents by the dual pass.
     fn evaluate(
         &self,
         ctx: &StepCtx,
@@ -240,11 +243,150 @@ impl Kernel for NodeShare<'_> {
         res: &mut [f64],
         jac: Option<(&mut [f64], &[usize])>,
     ) {
-        evaluate_constraint(self, ctx, y, res, jac)
+        match jac {
+            Some(jac) if !ctx.ed() && !ctx.is_static() => {
+                self.evaluate_closed(ctx, y, Some(res), jac, Tangent::Exact)
+            }
+            jac => evaluate_constraint(self, ctx, y, res, jac),
+        }
+    }
+
+    /// ED's residual and, from EP's closed-form tangent, the decoupled surrogate
+    /// ([`evaluate_constraint_decoupled`] says what it holds).
+    fn evaluate_decoupled(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        res: &mut [f64],
+        vals: &mut [f64],
+        pos: &[usize],
+    ) {
+        crate::elements::eval_kernel(self, ctx, y, res, None);
+        self.evaluate_closed(&ep_equations(ctx), y, None, (vals, pos), Tangent::Decoupled)
     }
 }
 
 impl NodeShare<'_> {
+    /// EP's equations of the share at the unknowns `y` (global) with their tangent in closed
+    /// form (`closed_tangent`): the residual into `res` (if given), the multipliers' columns
+    /// from the blended `B^D`, and the geometric ones from [`Self::geometric_derivative`].
+    fn evaluate_closed(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        res: Option<&mut [f64]>,
+        (vals, pos): (&mut [f64], &[usize]),
+        tangent: Tangent,
+    ) {
+        let n = self.len;
+        let mut buf = [0.0; MAX_SHARE];
+        for (b, &g) in buf.iter_mut().zip(&self.unknowns[..n]) {
+            *b = y[g];
+        }
+        let yl = &buf[..n];
+        self.with_equations(ctx, yl, |map, terms| {
+            if let Some(res) = res {
+                let mut rl = [0.0; MAX_SHARE];
+                add_constraint_equations(ctx, map, terms, yl, &mut rl[..n]);
+                for (&g, r) in self.unknowns[..n].iter().zip(&rl[..n]) {
+                    res[g] += r;
+                }
+            }
+            add_linear_columns(ctx, map, terms, n, vals, pos);
+        });
+        let (mut d, sides) = self.geometric_derivative(ctx, yl);
+        let (_, coord_slot, mult_slot) = self.slots(ctx);
+        let block = BlockColumns {
+            sides,
+            coords: &[coord_slot],
+            mult: mult_slot,
+            per: self.joint.per(),
+            n_rows: self.joint.n_rows(),
+            translations_linear: false,
+        };
+        block.add(&mut d, tangent, n, vals, pos);
+    }
+
+    /// The share's `∂(bᵀ sλ, s c_f)/∂` the end state's spatial variations `[node, follower,
+    /// ζ]` (eq. 33 generalised): with the pair law's `g`, its `B^D`, its rate operator `B`
+    /// at the end and its force stiffness `K`, and node j's weights `h_m = (h_i + h_f)/2`,
+    /// `h_f` and the secant `S` (their ζ derivatives `h_f′`, `S′`):
+    /// - forces on the node and follower `h_m B^Dᵀλ`: `h_m K`, on ζ `(h_f′/2) B^Dᵀλ`;
+    /// - the force on ζ `S λ·(g_i + g_f)/2`: `(S/2) Bᵀλ`, on ζ `S′ λ·(g_i + g_f)/2`;
+    /// - the constraint rows `s h_f g_f`: `s h_f B`, on ζ `s h_f′ g_f`.
+    ///
+    /// Also returns the sides' frames for [`BlockColumns`].
+    fn geometric_derivative(
+        &self,
+        ctx: &StepCtx,
+        yl: &[f64],
+    ) -> (Geometric, [Option<SideFrame>; 2]) {
+        let joint = self.joint;
+        let nr = joint.n_rows();
+        let (fol_slot, coord_slot, mult_slot) = self.slots(ctx);
+        let zf = Dual::<1>::seeded(ctx.state.coords[joint.coord] + yl[coord_slot], Some(0));
+        let w = joint.window_weights(ctx, zf);
+        let (hf, sec) = (w.hf[self.j], w.sec[self.j]);
+        let hm = (w.hi[self.j].re + hf.re) * 0.5;
+        let side = Side::Node(joint.beam_nodes[joint.first_node() + self.j]);
+        let node = [
+            joint.pose::<f64>(ctx.state, side, None, None),
+            joint.pose(ctx.state, side, Some(0), Some(yl)),
+        ];
+        let fol = [
+            joint.pose::<f64>(ctx.state, joint.follower, None, None),
+            joint.pose(ctx.state, joint.follower, fol_slot, Some(yl)),
+        ];
+        let (si, sf) = (
+            joint.pair_state(node[0], fol[0]),
+            joint.pair_state(node[1], fol[1]),
+        );
+        let (mut gi, mut gf) = ([0.0; MAX_ROWS], [0.0; MAX_ROWS]);
+        joint.law.value(&si, &mut gi);
+        joint.law.value(&sf, &mut gf);
+        let mut lam = [0.0; MAX_ROWS];
+        for (r, l) in lam.iter_mut().enumerate().take(nr) {
+            *l = yl[mult_slot + joint.per() * r] * ctx.s;
+        }
+        let (mut bd, mut rate) = ([[0.0; NCOL]; MAX_ROWS], [[0.0; NCOL]; MAX_ROWS]);
+        joint.law.discrete_gradient(&si, &sf, &mut bd);
+        joint.law.rate(&sf, &mut rate);
+        let mut d = Geometric::zero();
+        joint
+            .law
+            .force_stiffness(&si, &sf, &lam[..nr], &mut d.force);
+        let z = SHARE_ZETA;
+        for c in 0..12 {
+            let (mut bd_lam, mut rate_lam) = (0.0, 0.0);
+            for r in 0..nr {
+                bd_lam += bd[r][c] * lam[r];
+                rate_lam += rate[r][c] * lam[r];
+            }
+            for k in &mut d.force[c][..12] {
+                *k *= hm;
+            }
+            d.force[c][z] = 0.5 * hf.du[0] * bd_lam;
+            d.force[z][c] = 0.5 * sec.re * rate_lam;
+        }
+        let g_m_lam: f64 = (0..nr).map(|r| lam[r] * (gi[r] + gf[r]) * 0.5).sum();
+        d.force[z][z] = sec.du[0] * g_m_lam;
+        for r in 0..nr {
+            for c in 0..12 {
+                d.constraint[r][c] = ctx.s * hf.re * rate[r][c];
+            }
+            d.constraint[r][z] = ctx.s * hf.du[0] * gf[r];
+        }
+        let frame = |delta: Option<usize>, pose: &[(V3<f64>, M3<f64>); 2]| {
+            delta.map(|delta| SideFrame {
+                delta,
+                r_i: pose[0].1,
+                r_f: pose[1].1,
+                r: v3(yl, delta + 3),
+            })
+        };
+        (d, [frame(Some(0), &node), frame(fol_slot, &fol)])
+    }
+
     /// Local slots: the node's `[Δx, r]` (and jumps), the follower's, ζ, the multipliers.
     fn slots(&self, ctx: &StepCtx) -> (Option<usize>, usize, usize) {
         let per = self.joint.per();
@@ -1034,7 +1176,7 @@ impl Kernel for SlidingJoint {
         pos: &[usize],
     ) {
         self.for_each_share(ctx, y, pos, |share, spos| {
-            evaluate_constraint_decoupled(share, ctx, y, res, vals, spos)
+            share.evaluate_decoupled(ctx, y, res, vals, spos)
         });
     }
 
@@ -1280,6 +1422,76 @@ mod tests {
                                 e < 1e-7,
                                 "{scheme:?} statics={statics:?} p={p} {kind:?} ground={ground} ζ {zi}+{dz}: {e:e}"
                             );
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// The shares' closed-form tangent ([`NodeShare::evaluate_closed`]) is the dual pass's,
+    /// EP's and ED's decoupled surrogate alike, for every kind and element order, to a node
+    /// and to the ground, inside an element and across a boundary: round-off only.
+    #[test]
+    fn closed_form_tangent_is_the_dual_pass_tangent() {
+        for scheme in [Scheme::Ep, Scheme::Ed] {
+            for p in 1..=3 {
+                for kind in KINDS {
+                    for ground in [false, true] {
+                        for (zi, dz) in STEPS {
+                            let (state, layout, j) = case(scheme, kind, p, zi, ground);
+                            let y = unknowns(&layout, dz, 1.0);
+                            let ctx = StepCtx {
+                                layout,
+                                h: 0.01,
+                                t_i: 0.2,
+                                t_f: 0.21,
+                                s: 30.0,
+                                state: &state,
+                                gravity: V3::zero(),
+                                statics: None,
+                            };
+                            let n = j.unknowns().len();
+                            let pos: Vec<usize> = (0..n * n).collect();
+                            let (mut jc, mut jd) = (vec![0.0; n * n], vec![0.0; n * n]);
+                            let (mut rc, mut rd) = (vec![0.0; y.len()], vec![0.0; y.len()]);
+                            if scheme == Scheme::Ep {
+                                j.evaluate(&ctx, &y, &mut rc, Some((&mut jc, &pos)));
+                                j.for_each_share(&ctx, &y, &pos, |share, spos| {
+                                    evaluate_constraint(
+                                        share,
+                                        &ctx,
+                                        &y,
+                                        &mut rd,
+                                        Some((&mut jd, spos)),
+                                    )
+                                });
+                            } else {
+                                j.evaluate_decoupled(&ctx, &y, &mut rc, &mut jc, &pos);
+                                j.for_each_share(&ctx, &y, &pos, |share, spos| {
+                                    evaluate_constraint_decoupled(
+                                        share, &ctx, &y, &mut rd, &mut jd, spos,
+                                    )
+                                });
+                            }
+                            let what =
+                                format!("{scheme:?} p={p} {kind:?} ground={ground} ζ {zi}+{dz}");
+                            let scale = jd.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                            let worst = jc
+                                .iter()
+                                .zip(&jd)
+                                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+                            // The same derivatives by other arithmetic.
+                            assert!(
+                                worst <= 1e-13 * scale,
+                                "{what}: tangents differ by {worst:e} of {scale:e}"
+                            );
+                            let rs = rd.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                            let rw = rc
+                                .iter()
+                                .zip(&rd)
+                                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+                            assert!(rw <= 1e-14 * rs, "{what}: residuals differ by {rw:e}");
                         }
                     }
                 }
