@@ -370,11 +370,11 @@ impl NodeShare<'_> {
         }
         let g_m_lam: f64 = (0..nr).map(|r| lam[r] * (gi[r] + gf[r]) * 0.5).sum();
         d.force[z][z] = sec.du[0] * g_m_lam;
-        for r in 0..nr {
-            for c in 0..12 {
-                d.constraint[r][c] = ctx.s * hf.re * rate[r][c];
+        for ((row, b), g) in d.constraint.iter_mut().zip(&rate).zip(&gf).take(nr) {
+            for (v, x) in row[..12].iter_mut().zip(b) {
+                *v = ctx.s * hf.re * x;
             }
-            d.constraint[r][z] = ctx.s * hf.du[0] * gf[r];
+            row[z] = ctx.s * hf.du[0] * g;
         }
         let frame = |delta: Option<usize>, pose: &[(V3<f64>, M3<f64>); 2]| {
             delta.map(|delta| SideFrame {
