@@ -127,7 +127,9 @@ impl BlockColumns<'_> {
         let (mut nr, mut nc) = (0, 0);
         for (k, side) in self.sides.iter().enumerate() {
             if let Some(side) = side {
-                for c in 0..6 {
+                // The forces on the translations of a law affine in them are `∓λ`: no
+                // geometric stiffness.
+                for c in first..6 {
                     rows[nr] = (side.delta + c, 6 * k + c);
                     nr += 1;
                 }
@@ -146,13 +148,10 @@ impl BlockColumns<'_> {
             rows[nr] = (self.mult + self.per * r, NCOL + r);
             nr += 1;
         }
-        // Structural zeros (the forces on a coincident point's translations) are skipped.
         for &(i, dr) in &rows[..nr] {
+            let row = d.row(dr);
             for &(l, dc) in &cols[..nc] {
-                let v = d.row(dr)[dc];
-                if v != 0.0 {
-                    f(i, l, v);
-                }
+                f(i, l, row[dc]);
             }
         }
     }
