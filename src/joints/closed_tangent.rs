@@ -15,13 +15,62 @@
 
 use super::equations::{
     add_constraint_equations, add_geometric_entry, add_linear_columns, add_translation_columns,
-    ColumnMap, ConstraintTerms, StepEquations, Tangent, MAX_SPLIT_LOCAL,
+    ep_equations, evaluate_constraint, ColumnMap, ConstraintTerms, StepEquations, Tangent,
+    MAX_SPLIT_LOCAL,
 };
 use super::stiffness::Stiffness;
 use super::{zero_rows, ConstraintLaw, JointKernel, JointState, MAX_ROWS, NCOL};
-use crate::elements::StepCtx;
+use crate::elements::{eval_kernel, StepCtx};
 use crate::math::rotation::cayley_tangent;
 use crate::math::vec3::{M3, V3};
+
+/// A constraint kernel whose EP step tangent is written in closed form (a pair joint, a
+/// sliding joint's node share).
+pub trait ClosedTangent<const NC: usize>: StepEquations<NC> {
+    /// EP's step equations at the block's unknowns `y` (global): the residual into `res` (if
+    /// given) and the tangent into `vals[pos[row·n + col]]`, exactly or as ED's decoupled
+    /// surrogate (`ctx` then EP's view of an ED step, [`ep_equations`]).
+    fn evaluate_closed(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        res: Option<&mut [f64]>,
+        jac: (&mut [f64], &[usize]),
+        tangent: Tangent,
+    );
+}
+
+/// `Kernel::evaluate` of such a kernel: EP's time steps in closed form, ED's and statics'
+/// tangents by the dual pass ([`evaluate_constraint`]).
+pub fn evaluate<K: ClosedTangent<NC>, const NC: usize>(
+    k: &K,
+    ctx: &StepCtx,
+    y: &[f64],
+    res: &mut [f64],
+    jac: Option<(&mut [f64], &[usize])>,
+) {
+    match jac {
+        Some(jac) if !ctx.ed() && !ctx.is_static() => {
+            k.evaluate_closed(ctx, y, Some(res), jac, Tangent::Exact)
+        }
+        jac => evaluate_constraint(k, ctx, y, res, jac),
+    }
+}
+
+/// `Kernel::evaluate_decoupled` of such a kernel: ED's residual and, from EP's closed-form
+/// tangent, the decoupled surrogate ([`super::equations::evaluate_constraint_decoupled`] says
+/// what it holds).
+pub fn evaluate_decoupled<K: ClosedTangent<NC>, const NC: usize>(
+    k: &K,
+    ctx: &StepCtx,
+    y: &[f64],
+    res: &mut [f64],
+    vals: &mut [f64],
+    pos: &[usize],
+) {
+    eval_kernel(k, ctx, y, res, None);
+    k.evaluate_closed(&ep_equations(ctx), y, None, (vals, pos), Tangent::Decoupled)
+}
 
 /// The geometric derivative of a block's equations over the end state's spatial
 /// variations `[x₁, θ₁, x₂, θ₂, q]`: its force rows (the force columns in the same order)
@@ -167,11 +216,8 @@ fn turn_rows(d: &mut Stiffness, th: usize, r_i: &M3<f64>) {
     }
 }
 
-impl JointKernel {
-    /// EP's step equations at the block's unknowns `y` (global): the residual into `res` (if
-    /// given) and the tangent into `vals[pos[row·n + col]]`, exactly or as ED's decoupled
-    /// surrogate (`ctx` then EP's view of an ED step, [`super::equations::ep_equations`]).
-    pub(super) fn evaluate_closed(
+impl ClosedTangent<NCOL> for JointKernel {
+    fn evaluate_closed(
         &self,
         ctx: &StepCtx,
         y: &[f64],
@@ -234,7 +280,9 @@ impl JointKernel {
         };
         block.add(&mut d, tangent, n, vals, pos);
     }
+}
 
+impl JointKernel {
     /// `∂(B^Dᵀ sλ, s C_f)/∂` the end state's spatial variations.
     fn geometric_derivative(
         &self,
@@ -254,4 +302,26 @@ impl JointKernel {
         }
         d
     }
+}
+
+/// Test support: asserts that the closed form's `(residual, tangent)` is the dual pass's.
+#[cfg(test)]
+pub fn assert_same_evaluation(closed: (&[f64], &[f64]), dual: (&[f64], &[f64]), what: &str) {
+    let largest = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let apart = |a: &[f64], b: &[f64]| {
+        a.iter()
+            .zip(b)
+            .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+    };
+    // The same derivatives by other arithmetic: round-off of the largest entry.
+    let (worst, scale) = (apart(closed.1, dual.1), largest(dual.1));
+    assert!(
+        worst <= 1e-13 * scale,
+        "{what}: tangents differ by {worst:e} of {scale:e}"
+    );
+    let (worst, scale) = (apart(closed.0, dual.0), largest(dual.0));
+    assert!(
+        worst <= 1e-14 * scale,
+        "{what}: residuals differ by {worst:e} of {scale:e}"
+    );
 }

@@ -30,7 +30,7 @@ use crate::math::layout::Layout;
 use crate::math::rotation::rotate_material;
 use crate::math::scalar::Real;
 use crate::math::vec3::{M3, V3};
-use equations::{ColumnMap, ConstraintTerms, CoordColumn, NodeColumns, StepEquations, Tangent};
+use equations::{ColumnMap, ConstraintTerms, CoordColumn, NodeColumns, StepEquations};
 
 /// Most constraint rows of one joint (the screw joint's 7).
 pub const MAX_ROWS: usize = 8;
@@ -686,8 +686,6 @@ impl Kernel for JointKernel {
         self.equations_residual(ctx, y, res)
     }
 
-    /// EP's time steps in closed form ([`closed_tangent`]); ED's and statics' tangents by
-    /// the dual pass.
     fn evaluate(
         &self,
         ctx: &StepCtx,
@@ -695,16 +693,9 @@ impl Kernel for JointKernel {
         res: &mut [f64],
         jac: Option<(&mut [f64], &[usize])>,
     ) {
-        match jac {
-            Some(jac) if !ctx.ed() && !ctx.is_static() => {
-                self.evaluate_closed(ctx, y, Some(res), jac, Tangent::Exact)
-            }
-            jac => equations::evaluate_constraint(self, ctx, y, res, jac),
-        }
+        closed_tangent::evaluate(self, ctx, y, res, jac)
     }
 
-    /// ED's residual and, from EP's closed-form tangent, the decoupled surrogate
-    /// ([`equations::evaluate_constraint_decoupled`] says what it holds).
     fn evaluate_decoupled(
         &self,
         ctx: &StepCtx,
@@ -713,9 +704,7 @@ impl Kernel for JointKernel {
         vals: &mut [f64],
         pos: &[usize],
     ) {
-        crate::elements::eval_kernel(self, ctx, y, res, None);
-        let ep = equations::ep_equations(ctx);
-        self.evaluate_closed(&ep, y, None, (vals, pos), Tangent::Decoupled)
+        closed_tangent::evaluate_decoupled(self, ctx, y, res, vals, pos)
     }
 }
 
@@ -1207,24 +1196,7 @@ mod kernel_tests {
                         );
                     }
                     let kind = format!("{scheme:?} {law:?} ground={ground}");
-                    let scale = jd.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-                    let worst = jc
-                        .iter()
-                        .zip(&jd)
-                        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-                    assert!(
-                        worst <= 1e-13 * scale,
-                        "{kind}: tangents differ by {worst:e} of {scale:e}"
-                    );
-                    let rscale = rd.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-                    let rworst = rc
-                        .iter()
-                        .zip(&rd)
-                        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-                    assert!(
-                        rworst <= 1e-14 * rscale,
-                        "{kind}: residuals differ by {rworst:e}"
-                    );
+                    closed_tangent::assert_same_evaluation((&rc, &jc), (&rd, &jd), &kind);
                 }
             }
         }

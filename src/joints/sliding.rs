@@ -23,7 +23,7 @@
 //! (one either side): the Newton matrix's pattern follows the contact point as it travels, and
 //! [`SlidingJoint::place_window`] moves it between steps.
 
-use super::closed_tangent::{BlockColumns, Geometric, SideFrame};
+use super::closed_tangent::{self, BlockColumns, ClosedTangent, Geometric, SideFrame};
 use super::equations::*;
 use super::kinematics::*;
 use super::{
@@ -234,8 +234,6 @@ impl Kernel for NodeShare<'_> {
         self.equations_residual(ctx, y, res)
     }
 
-    /// EP's time steps in closed form ([`NodeShare::evaluate_closed`]); ED's and statics'
-    /// tangents by the dual pass.
     fn evaluate(
         &self,
         ctx: &StepCtx,
@@ -243,16 +241,9 @@ impl Kernel for NodeShare<'_> {
         res: &mut [f64],
         jac: Option<(&mut [f64], &[usize])>,
     ) {
-        match jac {
-            Some(jac) if !ctx.ed() && !ctx.is_static() => {
-                self.evaluate_closed(ctx, y, Some(res), jac, Tangent::Exact)
-            }
-            jac => evaluate_constraint(self, ctx, y, res, jac),
-        }
+        closed_tangent::evaluate(self, ctx, y, res, jac)
     }
 
-    /// ED's residual and, from EP's closed-form tangent, the decoupled surrogate
-    /// ([`evaluate_constraint_decoupled`] says what it holds).
     fn evaluate_decoupled(
         &self,
         ctx: &StepCtx,
@@ -261,15 +252,14 @@ impl Kernel for NodeShare<'_> {
         vals: &mut [f64],
         pos: &[usize],
     ) {
-        crate::elements::eval_kernel(self, ctx, y, res, None);
-        self.evaluate_closed(&ep_equations(ctx), y, None, (vals, pos), Tangent::Decoupled)
+        closed_tangent::evaluate_decoupled(self, ctx, y, res, vals, pos)
     }
 }
 
-impl NodeShare<'_> {
-    /// EP's equations of the share at the unknowns `y` (global) with their tangent in closed
-    /// form (`closed_tangent`): the residual into `res` (if given), the multipliers' columns
-    /// from the blended `B^D`, and the geometric ones from [`Self::geometric_derivative`].
+/// EP's equations of a share with their tangent in closed form: the residual, the
+/// multipliers' columns from the blended `B^D`, and the geometric ones from
+/// [`NodeShare::geometric_derivative`].
+impl ClosedTangent<SHARE_NC> for NodeShare<'_> {
     fn evaluate_closed(
         &self,
         ctx: &StepCtx,
@@ -306,7 +296,9 @@ impl NodeShare<'_> {
         };
         block.add(&mut d, tangent, n, vals, pos);
     }
+}
 
+impl NodeShare<'_> {
     /// The share's `∂(bᵀ sλ, s c_f)/∂` the end state's spatial variations `[node, follower,
     /// ζ]` (eq. 33 generalised): with the pair law's `g`, its `B^D`, its rate operator `B`
     /// at the end and its force stiffness `K`, and node j's weights `h_m = (h_i + h_f)/2`,
@@ -1476,22 +1468,7 @@ mod tests {
                             }
                             let what =
                                 format!("{scheme:?} p={p} {kind:?} ground={ground} ζ {zi}+{dz}");
-                            let scale = jd.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-                            let worst = jc
-                                .iter()
-                                .zip(&jd)
-                                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-                            // The same derivatives by other arithmetic.
-                            assert!(
-                                worst <= 1e-13 * scale,
-                                "{what}: tangents differ by {worst:e} of {scale:e}"
-                            );
-                            let rs = rd.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-                            let rw = rc
-                                .iter()
-                                .zip(&rd)
-                                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-                            assert!(rw <= 1e-14 * rs, "{what}: residuals differ by {rw:e}");
+                            closed_tangent::assert_same_evaluation((&rc, &jc), (&rd, &jd), &what);
                         }
                     }
                 }
