@@ -903,6 +903,11 @@ pub mod law_tests {
         // Closed form against a dual derivative of the same arithmetic: round-off of O(1)
         // entries.
         assert!(k < 1e-13, "force stiffness wrong: {k:e}");
+        let k = rate_stiffness_defect(law);
+        assert!(
+            k < 1e-13,
+            "rate stiffness is not twice the force stiffness: {k:e}"
+        );
         if let Some(row) = law.coincident_point_rows() {
             let p = point_rows_defect(law, row);
             assert!(
@@ -917,13 +922,28 @@ pub mod law_tests {
     /// spatial variations (`x + δx`, `(I + θ̃) R`, `q + δq`), over random states and
     /// multipliers.
     pub fn stiffness_defect<L: ConstraintLaw>(law: &L) -> f64 {
+        stiffness_defect_of(law, false)
+    }
+
+    /// The same for the rate operator at one state against `2 K(s, s, λ)`: `B(s) = B^D(s, s)`
+    /// with forms symmetric in the two states, so `∂(B(s)ᵀλ)/∂z` is twice the stiffness of
+    /// the end state alone (what ED's rate operators' stiffness can be built from).
+    pub fn rate_stiffness_defect<L: ConstraintLaw>(law: &L) -> f64 {
+        stiffness_defect_of(law, true)
+    }
+
+    fn stiffness_defect_of<L: ConstraintLaw>(law: &L, rate: bool) -> f64 {
         use crate::math::scalar::Dual;
         type D = Dual<NCOL>;
         let (nq, at) = (law.n_coords(), law.attachments());
         let mut worst = 0.0f64;
         for trial in 0..10 {
-            let si = random_state(trial as f64, nq, at);
             let sf = random_state(trial as f64 + 0.37, nq, at);
+            let si = if rate {
+                sf
+            } else {
+                random_state(trial as f64, nq, at)
+            };
             let lam: Vec<f64> = (0..law.n_rows())
                 .map(|r| ((trial * 7 + r) as f64 * 1.7).cos() * 40.0)
                 .collect();
@@ -939,9 +959,14 @@ pub mod law_tests {
             let q = std::array::from_fn(|c| D::seeded(sf.q[c], Some(12 + c)));
             let sfd = JointState::new([x0, x1], [r0, r1], q, at);
             let mut b = [[D::constant(0.0); NCOL]; MAX_ROWS];
-            law.discrete_gradient(&si.lift(), &sfd, &mut b);
+            if rate {
+                law.rate(&sfd, &mut b);
+            } else {
+                law.discrete_gradient(&si.lift(), &sfd, &mut b);
+            }
             let mut k = [[0.0; NCOL]; NCOL];
             law.force_stiffness(&si, &sf, &lam, &mut k);
+            let factor = if rate { 2.0 } else { 1.0 };
             let mut scale = 0.0f64;
             let mut diff = 0.0f64;
             for (c, k_row) in k.iter().enumerate() {
@@ -951,7 +976,7 @@ pub mod law_tests {
                 }
                 for (dual, closed) in g.du.iter().zip(k_row) {
                     scale = scale.max(dual.abs());
-                    diff = diff.max((dual - closed).abs());
+                    diff = diff.max((dual - factor * closed).abs());
                 }
             }
             worst = worst.max(diff / scale.max(1.0));
