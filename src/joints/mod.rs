@@ -1122,6 +1122,20 @@ mod kernel_tests {
         }
     }
 
+    /// A 10 ms step from t = 0.1 s with scale 30 (statics at `statics`), at `state`.
+    fn step_ctx(layout: Layout, state: &State, statics: Option<f64>) -> StepCtx<'_> {
+        StepCtx {
+            layout,
+            h: 0.01,
+            t_i: 0.1,
+            t_f: 0.11,
+            s: 30.0,
+            state,
+            gravity: V3([0.0; 3]),
+            statics,
+        }
+    }
+
     #[test]
     fn joint_tangents_match_finite_differences() {
         let state = generic_state();
@@ -1146,16 +1160,7 @@ mod kernel_tests {
                         0,
                         &layout,
                     );
-                    let ctx = StepCtx {
-                        layout,
-                        h: 0.01,
-                        t_i: 0.1,
-                        t_f: 0.11,
-                        s: 30.0,
-                        state: &state,
-                        gravity: V3([0.0; 3]),
-                        statics,
-                    };
+                    let ctx = step_ctx(layout, &state, statics);
                     let y: Vec<f64> = (0..layout.n_unknowns())
                         .map(|i| 0.02 * ((i as f64) * 1.3).sin())
                         .collect();
@@ -1186,16 +1191,7 @@ mod kernel_tests {
                         0,
                         &layout,
                     );
-                    let ctx = StepCtx {
-                        layout,
-                        h: 0.01,
-                        t_i: 0.1,
-                        t_f: 0.11,
-                        s: 30.0,
-                        state: &state,
-                        gravity: V3([0.0; 3]),
-                        statics: None,
-                    };
+                    let ctx = step_ctx(layout, &state, None);
                     let y: Vec<f64> = (0..layout.n_unknowns())
                         .map(|i| {
                             0.02 * ((i as f64) * 1.3).sin() + 0.5 * f64::from(i >= layout.mult(0))
@@ -1276,16 +1272,7 @@ mod kernel_tests {
                 let kernel = |layout: &Layout| {
                     JointKernel::new("j".into(), law.clone(), sides, (0..nq).collect(), 0, layout)
                 };
-                let ctx = |layout: Layout| StepCtx {
-                    layout,
-                    h: 0.01,
-                    t_i: 0.1,
-                    t_f: 0.11,
-                    s: 30.0,
-                    state: &state,
-                    gravity: V3([0.0; 3]),
-                    statics: None,
-                };
+                let ctx = |layout: Layout| step_ctx(layout, &state, None);
                 let y_ed: Vec<f64> = (0..ed.n_unknowns())
                     .map(|i| 0.02 * ((i as f64) * 1.3).sin() + 0.5 * f64::from(i >= ed.mult(0)))
                     .collect();

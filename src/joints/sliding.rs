@@ -1385,6 +1385,20 @@ mod tests {
         }
     }
 
+    /// A 10 ms step from t = 0.2 s with scale 30 (statics at `statics`), at `state`.
+    fn step_ctx(layout: Layout, state: &State, statics: Option<f64>) -> StepCtx<'_> {
+        StepCtx {
+            layout,
+            h: 0.01,
+            t_i: 0.2,
+            t_f: 0.21,
+            s: 30.0,
+            state,
+            gravity: V3::zero(),
+            statics,
+        }
+    }
+
     #[test]
     fn tangents_match_finite_differences_inside_and_across_elements() {
         for (scheme, statics) in [
@@ -1398,16 +1412,7 @@ mod tests {
                         for (zi, dz) in STEPS {
                             let (state, layout, j) = case(scheme, kind, p, zi, ground);
                             let y = unknowns(&layout, dz, 1.0);
-                            let ctx = StepCtx {
-                                layout,
-                                h: 0.01,
-                                t_i: 0.2,
-                                t_f: 0.21,
-                                s: 30.0,
-                                state: &state,
-                                gravity: V3::zero(),
-                                statics,
-                            };
+                            let ctx = step_ctx(layout, &state, statics);
                             let e = tangent_error(&j, &ctx, &y);
                             // FD truncation and round-off relative to |J|, as for every kernel.
                             assert!(
@@ -1433,16 +1438,7 @@ mod tests {
                         for (zi, dz) in STEPS {
                             let (state, layout, j) = case(scheme, kind, p, zi, ground);
                             let y = unknowns(&layout, dz, 1.0);
-                            let ctx = StepCtx {
-                                layout,
-                                h: 0.01,
-                                t_i: 0.2,
-                                t_f: 0.21,
-                                s: 30.0,
-                                state: &state,
-                                gravity: V3::zero(),
-                                statics: None,
-                            };
+                            let ctx = step_ctx(layout, &state, None);
                             let n = j.unknowns().len();
                             let pos: Vec<usize> = (0..n * n).collect();
                             let (mut jc, mut jd) = (vec![0.0; n * n], vec![0.0; n * n]);
