@@ -2,6 +2,7 @@
 //! coordinates, constraint rows and the kernels on them, with the energies and momenta that
 //! sensors and checks read. [`crate::compile`] builds it from a model.
 
+mod border;
 pub mod redundancy;
 pub mod refactor;
 pub mod sparse;

@@ -19,6 +19,12 @@ use std::ops::{Add, AddAssign, Div, Mul, Sub, SubAssign};
 /// growth at most 10× per elimination step instead of 1×).
 pub const PIVOT_THRESHOLD: f64 = 0.1;
 
+/// A pivot before a border ([`super::border`]) is kept while it is at least this fraction of
+/// the border rows' entries in its column: they are no candidates, but a pivot that small
+/// against them means the leading block is singular without the border (a massless node held
+/// by a sliding joint only), and the factors are taken without a border.
+pub const BORDER_GUARD: f64 = 1e-8;
+
 /// The scalar arithmetic a refactorization needs (`f64` and `c64`).
 pub trait Scalar:
     Copy
@@ -35,6 +41,8 @@ pub trait Scalar:
     fn magnitude(self) -> f64;
     /// The multiplicative identity.
     fn one() -> Self;
+    /// `s` times this number.
+    fn scaled(self, s: f64) -> Self;
 
     /// [`substitution::dot`], where the caller runs compiled for AVX2.
     ///
@@ -62,6 +70,9 @@ impl Scalar for f64 {
     fn one() -> Self {
         1.0
     }
+    fn scaled(self, s: f64) -> Self {
+        s * self
+    }
 }
 
 impl Scalar for c64 {
@@ -70,6 +81,9 @@ impl Scalar for c64 {
     }
     fn one() -> Self {
         c64::new(1.0, 0.0)
+    }
+    fn scaled(self, s: f64) -> Self {
+        c64::new(s * self.re, s * self.im)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -91,29 +105,35 @@ impl Scalar for c64 {
 /// and rebuilt (capacity kept) only after a pivoting factorization.
 #[derive(Default)]
 pub struct StaticPivotLu<T> {
-    n: usize,
+    pub(super) n: usize,
+    /// Factor rows and columns from here on are the border's (see [`super::border`]): the
+    /// pivots before it are chosen among the other rows only. `n` without a border.
+    pub(super) lead: usize,
     /// Per factor column: the factor rows of A's column `col_perm[k]` and where its values
     /// are in A's value array.
-    a_ptr: Vec<usize>,
-    a_row: Vec<usize>,
-    a_pos: Vec<usize>,
+    pub(super) a_ptr: Vec<usize>,
+    pub(super) a_row: Vec<usize>,
+    pub(super) a_pos: Vec<usize>,
+    /// A's entries in the border's rows and the leading columns: `(factor row, factor
+    /// column, value position)`.
+    pub(super) border_a: Vec<(usize, usize, usize)>,
     /// Strictly lower part of L (unit diagonal implied).
-    l: Triangle<T>,
+    pub(super) l: Triangle<T>,
     /// Strictly upper part of U, rows ascending in each column (a topological order for the
     /// left-looking updates), and U's diagonal.
-    u: Triangle<T>,
+    pub(super) u: Triangle<T>,
     /// Reciprocals of U's diagonal (the pivots): one division per column, not per entry.
-    u_inv: Vec<T>,
+    pub(super) u_inv: Vec<T>,
     /// U's columns as runs of consecutive rows (the back substitution's axpys).
-    u_runs: Runs,
+    pub(super) u_runs: Runs,
     /// L by rows, as runs of consecutive columns (the forward substitution's dot products):
     /// L's columns are short runs (row pivoting scatters them; 2.9 entries on the beam
     /// pendulum), its rows long ones (14).
-    l_rows: RowCopy<T>,
+    pub(super) l_rows: RowCopy<T>,
     row_perm: Vec<usize>,
     col_perm: Vec<usize>,
     /// Dense column / right-hand side in factor space; all zero between refactorizations.
-    work: Vec<T>,
+    pub(super) work: Vec<T>,
     /// One column of U being sorted (`rebuild`).
     sort_scratch: Vec<(usize, T)>,
     /// Run the baseline kernels even where wider instructions would pay (tests compare).
@@ -124,16 +144,19 @@ pub struct StaticPivotLu<T> {
 impl<T: Scalar> StaticPivotLu<T> {
     /// Takes patterns, pivots and values from faer's simplicial LU of the matrix with pattern
     /// `(a_col_ptr, a_row_idx)`, factored in column order `col_perm` with row order
-    /// `row_perm` (`row_perm_inv` its inverse).
+    /// `row_perm` (`row_perm_inv` its inverse); factor rows and columns from `lead` on are a
+    /// border (`n` for none), whose rows were not pivots of the columns before it.
     pub fn rebuild(
         &mut self,
         (a_col_ptr, a_row_idx): (&[usize], &[usize]),
         (row_perm, row_perm_inv): (&[usize], &[usize]),
         col_perm: &[usize],
         lu: &SimplicialLu<usize, T>,
+        lead: usize,
     ) {
         let n = col_perm.len();
         self.n = n;
+        self.lead = lead;
         self.row_perm.clear();
         self.row_perm.extend_from_slice(row_perm);
         self.col_perm.clear();
@@ -150,6 +173,14 @@ impl<T: Scalar> StaticPivotLu<T> {
                 self.a_pos.push(p);
             }
             self.a_ptr.push(self.a_row.len());
+        }
+        self.border_a.clear();
+        for k in 0..lead {
+            for p in self.a_ptr[k]..self.a_ptr[k + 1] {
+                if self.a_row[p] >= lead {
+                    self.border_a.push((self.a_row[p], k, self.a_pos[p]));
+                }
+            }
         }
         // faer stores L's unit diagonal explicitly; U's diagonal is the pivots.
         self.l.take_strict(lu.l_factor_unsorted(), |_, _| {});
@@ -229,7 +260,7 @@ impl<T: Scalar> StaticPivotLu<T> {
     /// Column `k` of L and U: scatter A's column, apply the earlier columns of L that U's
     /// pattern names (in ascending order), gather and scale (left-looking).
     #[inline(always)]
-    fn refactor_column(&mut self, k: usize, values: &[T]) -> bool {
+    pub(super) fn refactor_column(&mut self, k: usize, values: &[T]) -> bool {
         let x = &mut self.work;
         for p in self.a_ptr[k]..self.a_ptr[k + 1] {
             x[self.a_row[p]] = values[self.a_pos[p]];
@@ -248,11 +279,20 @@ impl<T: Scalar> StaticPivotLu<T> {
         let pivot = x[k];
         x[k] = T::default();
         let lower = self.l.ptr[k]..self.l.ptr[k + 1];
-        let largest = self.l.row[lower.clone()]
-            .iter()
-            .fold(0.0f64, |m, &i| m.max(x[i].magnitude()));
+        // A border's rows are no candidates before it: only a pivot lost against them
+        // (a singular leading block) fails the factors.
+        let (mut largest, mut border) = (0.0f64, 0.0f64);
+        for &i in &self.l.row[lower.clone()] {
+            let m = x[i].magnitude();
+            if k >= self.lead || i < self.lead {
+                largest = largest.max(m);
+            } else {
+                border = border.max(m);
+            }
+        }
         let size = pivot.magnitude();
-        if !(size.is_finite() && size > 0.0 && size >= PIVOT_THRESHOLD * largest) {
+        let kept = size >= PIVOT_THRESHOLD * largest && size >= BORDER_GUARD * border;
+        if !(size.is_finite() && size > 0.0 && kept) {
             return false;
         }
         let inv = T::one() / pivot;
@@ -354,7 +394,7 @@ impl<T: Scalar> StaticPivotLu<T> {
 /// consecutive indices: the substitutions' inner loops then run over contiguous slices, no
 /// index per entry.
 #[derive(Default)]
-struct Runs {
+pub(super) struct Runs {
     ptr: Vec<usize>,
     /// `(first index, length)`.
     runs: Vec<(usize, usize)>,
@@ -378,7 +418,7 @@ impl Runs {
     }
 
     /// Line `k`'s runs.
-    fn of(&self, k: usize) -> &[(usize, usize)] {
+    pub(super) fn of(&self, k: usize) -> &[(usize, usize)] {
         &self.runs[self.ptr[k]..self.ptr[k + 1]]
     }
 }
@@ -386,11 +426,11 @@ impl Runs {
 /// A strict lower triangle's copy by rows, columns ascending, refreshed from its column
 /// storage after every refactorization.
 #[derive(Default)]
-struct RowCopy<T> {
-    ptr: Vec<usize>,
+pub(super) struct RowCopy<T> {
+    pub(super) ptr: Vec<usize>,
     /// Where each entry's value is in the column storage.
-    source: Vec<usize>,
-    runs: Runs,
+    pub(super) source: Vec<usize>,
+    pub(super) runs: Runs,
     val: Vec<T>,
 }
 
@@ -426,7 +466,7 @@ impl<T: Scalar> RowCopy<T> {
     }
 
     /// The values from the column storage's.
-    fn gather(&mut self, by_columns: &[T]) {
+    pub(super) fn gather(&mut self, by_columns: &[T]) {
         for (v, &p) in self.val.iter_mut().zip(&self.source) {
             *v = by_columns[p];
         }
@@ -435,10 +475,10 @@ impl<T: Scalar> RowCopy<T> {
 
 /// A strict triangle by compressed columns.
 #[derive(Default)]
-struct Triangle<T> {
-    ptr: Vec<usize>,
-    row: Vec<usize>,
-    val: Vec<T>,
+pub(super) struct Triangle<T> {
+    pub(super) ptr: Vec<usize>,
+    pub(super) row: Vec<usize>,
+    pub(super) val: Vec<T>,
 }
 
 impl<T: Scalar> Triangle<T> {

@@ -47,7 +47,15 @@ pub struct NewtonMatrix<T: Entry = f64> {
     factors: Box<StaticPivotLu<T>>,
     pivots: bool,
     scratch: MemBuffer,
+    /// Unknowns whose rows and columns are a border ([`super::border`]), ascending; their
+    /// columns come last in the column order.
+    border: Vec<usize>,
+    /// The values with the border's rows scaled down, for a pivoting factorization (which
+    /// then chooses the leading block's pivots among its own rows).
+    scaled: Vec<T>,
     pub numeric_factorizations: usize,
+    /// Refreshes of the border's factors ([`Self::refresh_border`]).
+    pub border_refreshes: usize,
     /// Of those, refactorizations with the pivots of an earlier one.
     pub refactorizations: usize,
     /// Fill-reducing orderings computed (once per sparsity pattern).
@@ -164,7 +172,10 @@ impl<T: Entry> NewtonMatrix<T> {
             factors: Box::default(),
             pivots: false,
             scratch: MemBuffer::new(factorize_simplicial_numeric_lu_scratch::<usize, T>(n, n)),
+            border: Vec::new(),
+            scaled: Vec::new(),
             numeric_factorizations: 0,
+            border_refreshes: 0,
             refactorizations: 0,
             orderings: 0,
         }
@@ -180,12 +191,66 @@ impl<T: Entry> NewtonMatrix<T> {
             .map(|j| &self.row_idx[self.col_ptr[j]..self.col_ptr[j + 1]])
             .collect();
         self.col_perm = reverse_cuthill_mckee(&cols);
-        self.col_perm_inv = vec![0usize; n];
+        self.place_border();
+        self.orderings += 1;
+    }
+
+    /// Makes `border` (unknowns, each below n) the matrix's border: their columns last in
+    /// the column order, their rows pivots of those columns only, so that their values can
+    /// be refreshed without a factorization ([`Self::refresh_border`]).
+    pub fn set_border(&mut self, border: &[usize]) {
+        self.border = border.to_vec();
+        self.border.sort_unstable();
+        self.border.dedup();
+        assert!(
+            self.border.iter().all(|&b| b < self.n),
+            "border unknowns below n"
+        );
+        self.place_border();
+    }
+
+    /// The border's columns moved to the end of the column order (the others' order kept);
+    /// the pivots are forgotten.
+    fn place_border(&mut self) {
+        let is_border = |c: &usize| self.border.binary_search(c).is_ok();
+        let (mut order, border): (Vec<usize>, Vec<usize>) =
+            self.col_perm.iter().partition(|c| !is_border(c));
+        order.extend(border);
+        self.col_perm = order;
+        self.col_perm_inv = vec![0usize; self.n];
         for (k, &p) in self.col_perm.iter().enumerate() {
             self.col_perm_inv[p] = k;
         }
         self.pivots = false;
-        self.orderings += 1;
+    }
+
+    /// Whether the factors in hand have a border that [`Self::refresh_border`] can refresh
+    /// (a leading block singular without it is factored whole).
+    pub fn border_ready(&self) -> bool {
+        self.pivots && self.factors.has_border()
+    }
+
+    /// Refactors only the border's part of the factors from the current values of its rows
+    /// and columns (see [`super::border`]); false if it cannot (no border factored, or a
+    /// border pivot failed): the factors are then to be computed afresh before a solve.
+    pub fn refresh_border(&mut self) -> bool {
+        if !self.border_ready() {
+            return false;
+        }
+        let nnz = self.row_idx.len();
+        let refreshed = self.factors.refresh_border(&self.values[..nnz]);
+        self.border_refreshes += usize::from(refreshed);
+        refreshed
+    }
+
+    /// The value positions of the border's rows and columns (each once).
+    pub fn border_positions(&self) -> Vec<usize> {
+        let is_border = |i: usize| self.border.binary_search(&i).is_ok();
+        (0..self.n)
+            .flat_map(|j| (self.col_ptr[j]..self.col_ptr[j + 1]).map(move |p| (j, p)))
+            .filter(|&(j, p)| is_border(j) || is_border(self.row_idx[p]))
+            .map(|(_, p)| p)
+            .collect()
     }
 
     pub fn nnz(&self) -> usize {
@@ -222,23 +287,70 @@ impl<T: Entry> NewtonMatrix<T> {
     /// faer's simplicial LU with partial pivoting; its pivots and patterns become the
     /// refactorizations'.
     fn factor_pivoting(&mut self) -> Result<(), String> {
+        if !self.border.is_empty() && self.factor_bordered()? {
+            return Ok(());
+        }
+        self.factor_with_pivots(false)?;
+        self.factors.rebuild(
+            (&self.col_ptr, &self.row_idx),
+            (&self.row_perm, &self.row_perm_inv),
+            &self.col_perm,
+            &self.pivoting,
+            self.n,
+        );
+        self.pivots = true;
+        Ok(())
+    }
+
+    /// The pivoting factorization with the border's rows kept out of the leading block's
+    /// pivots (faer chooses them on values whose border rows are scaled by 1e-12, then the
+    /// kept pivots refactor the true values); false if the leading block needs the border's
+    /// rows (singular without them).
+    fn factor_bordered(&mut self) -> Result<bool, String> {
+        self.factor_with_pivots(true)?;
+        let lead = self.n - self.border.len();
+        let clean = self.row_perm[lead..]
+            .iter()
+            .all(|r| self.border.binary_search(r).is_ok());
+        if !clean {
+            return Ok(false);
+        }
+        self.factors.rebuild(
+            (&self.col_ptr, &self.row_idx),
+            (&self.row_perm, &self.row_perm_inv),
+            &self.col_perm,
+            &self.pivoting,
+            lead,
+        );
+        self.pivots = self.factors.refactor(&self.values[..self.row_idx.len()]);
+        Ok(self.pivots)
+    }
+
+    /// faer's simplicial LU with partial pivoting of the values, the border's rows scaled
+    /// down if `scale_border`.
+    fn factor_with_pivots(&mut self, scale_border: bool) -> Result<(), String> {
         let n = self.n;
         let nnz = self.row_idx.len();
+        let values = if scale_border {
+            self.scaled.clear();
+            self.scaled.extend_from_slice(&self.values[..nnz]);
+            for (v, r) in self.scaled.iter_mut().zip(&self.row_idx) {
+                if self.border.binary_search(r).is_ok() {
+                    *v = v.scaled(1e-12);
+                }
+            }
+            &self.scaled[..]
+        } else {
+            &self.values[..nnz]
+        };
         let pattern = sym_ref(n, &self.col_ptr, &self.row_idx);
-        let a = SparseColMatRef::new(pattern, &self.values[..nnz]);
+        let a = SparseColMatRef::new(pattern, values);
         // SAFETY: mutually inverse permutations of 0..n (`order_columns`).
         let cp = unsafe { PermRef::new_unchecked(&self.col_perm, &self.col_perm_inv, n) };
         let (rp, rp_inv) = (&mut self.row_perm, &mut self.row_perm_inv);
         let stack = MemStack::new(&mut self.scratch);
         factorize_simplicial_numeric_lu(rp, rp_inv, &mut self.pivoting, a, cp, stack)
             .map_err(|e| format!("sparse LU failed: {e:?}"))?;
-        self.factors.rebuild(
-            (&self.col_ptr, &self.row_idx),
-            (&self.row_perm, &self.row_perm_inv),
-            &self.col_perm,
-            &self.pivoting,
-        );
-        self.pivots = true;
         Ok(())
     }
 
@@ -306,6 +418,14 @@ impl NewtonMatrix<f64> {
             self.row_idx.clone(),
             self.values[..nnz].to_vec(),
         )
+    }
+
+    /// Adds `v` to entry `(i, j)` of the pattern (tests).
+    #[cfg(test)]
+    pub fn add_entry_for_test(&mut self, i: usize, j: usize, v: f64) {
+        let rows = &self.row_idx[self.col_ptr[j]..self.col_ptr[j + 1]];
+        let p = rows.binary_search(&i).expect("entry in pattern");
+        self.values[self.col_ptr[j] + p] += v;
     }
 
     /// Dense copy (for tests and diagnostics only).
@@ -553,6 +673,128 @@ mod tests {
         let mut x = b.clone();
         m.solve(&mut x);
         assert!(relative_residual(&m, &x, &b) < 1e-13);
+    }
+
+    /// The chain with a border of four unknowns (30..34): three constraint rows on
+    /// unknowns 12–17 with their multipliers' columns (a zero diagonal block, as a joint's)
+    /// and a contact coordinate coupled to all of them; `shift` changes the border's values.
+    fn bordered<T: Entry + std::ops::AddAssign>(
+        value: impl Fn(usize, usize, usize) -> T,
+        border: impl Fn(usize, usize) -> T,
+    ) -> (NewtonMatrix<T>, Vec<usize>) {
+        let mut blocks: Vec<Vec<usize>> =
+            (0..25).step_by(3).map(|s| (s..s + 6).collect()).collect();
+        blocks.push((12..18).chain(30..34).collect());
+        let refs: Vec<&[usize]> = blocks.iter().map(|b| b.as_slice()).collect();
+        let (mut m, pos) = NewtonMatrix::from_blocks(34, &refs, None);
+        m.set_border(&[30, 31, 32, 33]);
+        for (k, p) in pos[..9].iter().enumerate() {
+            for (e, &at) in p.iter().enumerate() {
+                m.values[at] += value(k, e / 6, e % 6);
+            }
+        }
+        for (e, &at) in pos[9].iter().enumerate() {
+            let (i, j) = (e / 10, e % 10);
+            // Node–node entries are the chain's; the multipliers' block is zero.
+            if (i >= 6 || j >= 6) && !(i >= 6 && j >= 6 && i < 9 && j < 9) {
+                m.values[at] += border(i, j);
+            }
+        }
+        let at_border = m.border_positions();
+        (m, at_border)
+    }
+
+    fn border_entry(shift: f64) -> impl Fn(usize, usize) -> f64 {
+        // Pseudo-random (a sum of sines of i and j alone would be of rank 2).
+        move |i, j| {
+            let k = (i * 10 + j) as f64;
+            ((k * 12.9898 + shift).sin() * 43758.5453).fract() + if i == j { 2.0 } else { 0.0 }
+        }
+    }
+
+    /// New values in a border's rows and columns: its refresh is the LU of the new matrix,
+    /// without a factorization; where the leading block changed too, of the matrix with the
+    /// factored leading block and the new border (what modified Newton then iterates with).
+    #[test]
+    fn a_border_refresh_factors_the_new_border_with_the_kept_leading_block() {
+        let (mut m, at_border) = bordered(entry, border_entry(0.0));
+        m.factor().unwrap();
+        assert!(m.border_ready());
+        let (new, _) = bordered(entry, border_entry(0.7));
+        let b: Vec<f64> = (0..34).map(|i| (i as f64 * 0.37).sin()).collect();
+        let kept = m.values.clone();
+        for &p in &at_border {
+            m.values[p] = new.values[p];
+        }
+        // The leading block's values in hand differ from the factored ones (later iterates):
+        // the refresh reads only the border's.
+        for (p, v) in m.values.iter_mut().enumerate() {
+            if at_border.binary_search(&p).is_err() {
+                *v *= 1.3;
+            }
+        }
+        assert!(m.refresh_border());
+        assert_eq!((m.numeric_factorizations, m.border_refreshes), (1, 1));
+        let mut x = b.clone();
+        m.solve(&mut x);
+        let residual_with = |m: &mut NewtonMatrix, leading: &[f64]| {
+            for (p, v) in m.values.iter_mut().enumerate() {
+                if at_border.binary_search(&p).is_err() {
+                    *v = leading[p];
+                }
+            }
+            relative_residual(m, &x, &b)
+        };
+        // Round-off: 5e-13 measured, a fresh bordered factorization of the same matrix 2e-13
+        // (the leading pivots chosen without the border's rows grow the factors a little); a
+        // stale or misplaced entry leaves O(1e-3) or more, as below.
+        assert!(residual_with(&mut m, &kept) < 1e-11);
+        let scaled: Vec<f64> = kept.iter().map(|v| 1.3 * v).collect();
+        assert!(
+            residual_with(&mut m, &scaled) > 1e-3,
+            "not the changed leading block's"
+        );
+    }
+
+    #[test]
+    fn complex_borders_refresh() {
+        use faer::c64;
+        let value = |k, i, j| c64::new(entry(k, i, j), 0.3 * entry(k + 1, j, i));
+        let border = |shift: f64| move |i, j| c64::new(border_entry(shift)(i, j), 0.2);
+        let (mut m, at_border) = bordered(value, border(0.0));
+        m.factor().unwrap();
+        let (new, _) = bordered(value, border(1.1));
+        for &p in &at_border {
+            m.values[p] = new.values[p];
+        }
+        assert!(m.refresh_border());
+        let b: Vec<c64> = (0..34).map(|i| c64::new(1.0, -(i as f64))).collect();
+        let mut x = b.clone();
+        m.solve(&mut x);
+        assert!(relative_residual(&m, &x, &b) < 1e-13);
+    }
+
+    /// An unknown held by the border's rows only (a massless node on a sliding joint): the
+    /// leading block is singular without them, so the matrix is factored whole, and solved.
+    #[test]
+    fn a_leading_block_singular_without_its_border_is_factored_whole() {
+        let (mut m, _) = bordered(entry, border_entry(0.0));
+        let dense = m.to_dense();
+        // Unknown 14's column and row keep only their border entries.
+        for j in 0..30 {
+            for (r, c) in [(14, j), (j, 14)] {
+                if dense[r][c] != 0.0 {
+                    m.add_entry_for_test(r, c, -dense[r][c]);
+                }
+            }
+        }
+        m.factor().unwrap();
+        assert!(!m.border_ready());
+        assert!(!m.refresh_border());
+        let b: Vec<f64> = (0..34).map(|i| 1.0 + i as f64).collect();
+        let mut x = b.clone();
+        m.solve(&mut x);
+        assert!(relative_residual(&m, &x, &b) < 1e-12);
     }
 
     /// Refactorizations and solves compiled for AVX2 (where the processor has it) give what
