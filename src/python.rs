@@ -466,6 +466,7 @@ impl PySimulation {
         d.set_item("exact_factorizations", s.exact_factorizations)?;
         d.set_item("pivoting_factorizations", s.pivoting_factorizations)?;
         d.set_item("orderings", s.orderings)?;
+        d.set_item("border_refreshes", s.border_refreshes)?;
         d.set_item("max_constraint_violation", s.max_constraint_violation)?;
         d.set_item("max_constraint_work", s.max_constraint_work)?;
         d.set_item("max_energy_defect", s.max_energy_defect)?;

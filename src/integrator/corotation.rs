@@ -167,36 +167,34 @@ impl CoRotation {
 
     /// Turns the spatial parts of `v` (a residual, or an update) by `Qᵀ` (`back`) or `Q`.
     fn apply(&self, v: &mut [f64], back: bool) {
+        self.for_each_turn(|at, q| turn_triplet(q, v, at, back));
+    }
+
+    /// Calls `f(indices, Q)` for each triplet of unknowns that turns (a co-rotated node's
+    /// translation increments, under ED its jumps, a joint's spatial rows), with its turn.
+    pub fn for_each_turn(&self, mut f: impl FnMut([usize; 3], &M3<f64>)) {
         let l = self.layout;
-        let turn = |q: &M3<f64>, v: &mut [f64], at: [usize; 3]| {
-            let x = V3(at.map(|i| v[i]));
-            let y = if back { q.tmul_v(&x) } else { q.mul_v(&x) };
-            for (k, &i) in at.iter().enumerate() {
-                v[i] = y.0[k];
-            }
-        };
         for (a, q) in self.turns.iter().enumerate() {
             if !self.corotated[a] {
                 continue;
             }
             let d = l.node_delta(a);
-            turn(q, v, [d, d + 1, d + 2]);
+            f([d, d + 1, d + 2], q);
             if l.ed() {
                 let j = l.node_jump(a);
-                turn(q, v, [j, j + 1, j + 2]);
+                f([j, j + 1, j + 2], q);
             }
         }
         for s in &self.spatial_rows {
             if let Some(q) = self.rows_turn(s) {
-                turn(q, v, [0, 1, 2].map(|k| l.mult(s.row + k)));
+                f([0, 1, 2].map(|k| l.mult(s.row + k)), q);
                 if l.ed() {
-                    turn(q, v, [0, 1, 2].map(|k| l.mult_jump(s.row + k)));
+                    f([0, 1, 2].map(|k| l.mult_jump(s.row + k)), q);
                 }
             }
         }
     }
 
-    /// The residual turned back to the factors' frames (before the solve).
     pub fn to_factored(&self, res: &mut [f64]) {
         self.apply(res, true);
     }
@@ -209,6 +207,15 @@ impl CoRotation {
     /// Which nodes are co-rotated this step (tests, diagnostics).
     pub fn corotated(&self) -> &[bool] {
         &self.corotated
+    }
+}
+
+/// `v[at] ← Qᵀ v[at]` (`back`) or `Q v[at]`.
+pub fn turn_triplet(q: &M3<f64>, v: &mut [f64], at: [usize; 3], back: bool) {
+    let x = V3(at.map(|i| v[i]));
+    let y = if back { q.tmul_v(&x) } else { q.mul_v(&x) };
+    for (k, &i) in at.iter().enumerate() {
+        v[i] = y.0[k];
     }
 }
 

@@ -2,6 +2,7 @@
 //! sparse LU's symbolic analysis reused, and the bookkeeping of the energy identity (work of
 //! drives, loads, dampers and constraints, and ED's jump dissipation).
 
+mod contact_border;
 pub mod convergence;
 pub mod corotation;
 pub mod dense_output;
@@ -12,6 +13,7 @@ pub mod predictor;
 mod renewal;
 mod structure;
 
+use contact_border::ContactBorder;
 use convergence::{inf_norm, Measure};
 use corotation::CoRotation;
 use ed_decoupled::DecoupledSystem;
@@ -223,6 +225,8 @@ pub struct Integrator {
     kinds: KindStreak,
     /// Newton iterations per converged step, a running mean (what a dearer solve costs).
     iterations_per_step: f64,
+    /// The sliding contacts' rows and columns, refreshed in kept factors at each step.
+    contact_border: Option<ContactBorder>,
 }
 
 /// A Newton matrix's pattern, each kernel's block positions in it and the block structure
@@ -234,11 +238,18 @@ struct Pattern {
 }
 
 impl Pattern {
-    /// Only the structurally nonzero entries enter the pattern: less fill, faster LU.
-    fn of(sys: &System, structure: BlockStructure) -> Self {
+    /// Only the structurally nonzero entries enter the pattern: less fill, faster LU. For
+    /// modified Newton (`bordered`), the sliding contacts' unknowns are its border.
+    fn of(sys: &System, structure: BlockStructure, bordered: bool) -> Self {
         let n = sys.layout.n_unknowns();
-        let (matrix, pos) =
-            NewtonMatrix::from_blocks(n, &structure.unknowns(), Some(structure.masks()));
+        let blocks = structure.unknowns();
+        let border = match bordered {
+            true => contact_border::sliding_unknowns(sys),
+            false => Vec::new(),
+        };
+        let masks = contact_border::open_border(&blocks, structure.masks(), &border);
+        let (mut matrix, pos) = NewtonMatrix::from_blocks(n, &blocks, Some(&masks));
+        matrix.set_border(&border);
         Pattern {
             matrix,
             pos: KernelPositions::split(sys, pos),
@@ -249,7 +260,9 @@ impl Pattern {
 
 impl Integrator {
     pub fn new(sys: &System, settings: &SimulationSettings) -> Self {
-        let pattern = Pattern::of(sys, BlockStructure::probe(sys, settings.dt));
+        let probe = BlockStructure::probe(sys, settings.dt);
+        let bordered = contact_border::applies(sys, settings.modified_newton);
+        let pattern = Pattern::of(sys, probe, bordered);
         Self::with_settings(sys, settings, pattern)
     }
 
@@ -271,6 +284,8 @@ impl Integrator {
         integ.increment_tol = settings.newton_increment_tol;
         integ.max_iter = settings.max_newton_iterations as usize;
         integ.modified_newton = settings.modified_newton;
+        integ.contact_border = ContactBorder::new(sys, &integ.matrix)
+            .filter(|_| contact_border::applies(sys, settings.modified_newton));
         integ
     }
 
@@ -279,11 +294,13 @@ impl Integrator {
     /// again. The factors in hand go with the old pattern; the counters, the predictor's
     /// trend and what the step history taught about factors carry on.
     pub fn rebuild_pattern(&mut self, sys: &System, h: f64) {
-        let fresh = Pattern::of(sys, self.structure.reprobe(sys, h));
+        let bordered = contact_border::applies(sys, self.modified_newton);
+        let fresh = Pattern::of(sys, self.structure.reprobe(sys, h), bordered);
         let old = std::mem::replace(&mut self.matrix, fresh.matrix);
         self.matrix.numeric_factorizations += old.numeric_factorizations;
         self.matrix.refactorizations += old.refactorizations;
         self.matrix.orderings += old.orderings;
+        self.matrix.border_refreshes += old.border_refreshes;
         self.structure = fresh.structure;
         self.pos = fresh.pos;
         if let Some(d) = self.decoupled.take() {
@@ -294,6 +311,7 @@ impl Integrator {
         self.values_exact = false;
         self.factored_this_solve = false;
         self.corotation = CoRotation::new(sys);
+        self.contact_border = ContactBorder::new(sys, &self.matrix).filter(|_| bordered);
         self.served.restart();
         self.pattern_rebuilds += 1;
     }
@@ -345,6 +363,7 @@ impl Integrator {
             lifetimes: [None; 2],
             kinds: KindStreak::default(),
             iterations_per_step: 0.0,
+            contact_border: None,
         }
     }
 
@@ -783,7 +802,7 @@ impl Integrator {
         self.factored_this_solve = false;
         self.decoupled_from = None;
         for it in 0..=self.max_iter {
-            let mut reuse = self.keep_factors(ctx, it, converged_before);
+            let mut reuse = self.keep_factors(sys, ctx, it, converged_before);
             let tangent = (!reuse).then(|| self.fresh_factors(ctx));
             self.assemble_for(sys, ctx, tangent);
             if ctx.is_static() {
@@ -872,13 +891,21 @@ impl Integrator {
     /// follows a converged one (followed through the nodes' rotations since they were
     /// computed) unless they no longer pay ([`renewal`]); a fresh tangent otherwise (the first
     /// step, after a failure, a new step size).
-    fn keep_factors(&mut self, ctx: &StepCtx, it: usize, converged_before: bool) -> bool {
-        let reuse = self.factors_fit(ctx) && (it > 0 || (converged_before && !self.renewal_due()));
+    fn keep_factors(
+        &mut self,
+        sys: &System,
+        ctx: &StepCtx,
+        it: usize,
+        converged_before: bool,
+    ) -> bool {
+        let mut reuse =
+            self.factors_fit(ctx) && (it > 0 || (converged_before && !self.renewal_due()));
+        if it == 0 && reuse {
+            self.corotation.follow(ctx.state, &self.y);
+            reuse = self.refresh_contact_border(sys, ctx);
+        }
         if it == 0 {
             self.started_stale = reuse;
-            if reuse {
-                self.corotation.follow(ctx.state, &self.y);
-            }
         }
         reuse
     }

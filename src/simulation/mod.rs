@@ -42,6 +42,9 @@ pub struct RunStats {
     pub pivoting_factorizations: usize,
     /// Fill-reducing orderings computed (once per sparsity pattern).
     pub orderings: usize,
+    /// Steps whose kept factors had their sliding contacts' rows and columns refreshed
+    /// instead of a factorization (modified Newton with sliding joints).
+    pub border_refreshes: usize,
     pub max_constraint_violation: f64,
     pub max_constraint_work: f64,
     /// Largest |ΔE − W_drive − W_ext − W_damp + D| of a step: the energy identity's defect.
@@ -77,6 +80,7 @@ impl Default for RunStats {
             newton_iterations: 0,
             factorizations: 0,
             exact_factorizations: 0,
+            border_refreshes: 0,
             pivoting_factorizations: 0,
             orderings: 0,
             max_constraint_violation: 0.0,
@@ -606,6 +610,7 @@ impl Simulation {
         self.stats.linear_solves = self.integrator.solves;
         self.stats.residual_evaluations = self.integrator.residual_evaluations;
         self.stats.orderings = self.integrator.matrix.orderings;
+        self.stats.border_refreshes = self.integrator.matrix.border_refreshes;
         self.stats.pattern_misses = self.integrator.pattern_misses;
         self.stats.pattern_rebuilds = self.integrator.pattern_rebuilds;
     }

@@ -137,15 +137,18 @@ impl<T: Entry> NewtonMatrix<T> {
         m
     }
 
-    /// A matrix of this one's pattern and column order, all values zero, no factors yet.
+    /// A matrix of this one's pattern, column order and border, all values zero, no factors
+    /// yet.
     pub fn same_pattern(&self) -> Self {
-        Self::unfactored(
+        let mut m = Self::unfactored(
             self.n,
             self.col_ptr.clone(),
             self.row_idx.clone(),
             self.diagonal.clone(),
             (self.col_perm.clone(), self.col_perm_inv.clone()),
-        )
+        );
+        m.border = self.border.clone();
+        m
     }
 
     /// A matrix of the given pattern, diagonal positions and column order (and its
