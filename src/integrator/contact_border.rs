@@ -147,8 +147,8 @@ impl ContactBorder {
             })
             .collect();
         let mut rows = vec![Vec::new(); unknowns.len()];
-        for j in (0..col_ptr.len() - 1).filter(|&j| !is_border(j)) {
-            for p in col_ptr[j]..col_ptr[j + 1] {
+        for (j, w) in col_ptr.windows(2).enumerate().filter(|(j, _)| !is_border(*j)) {
+            for p in w[0]..w[1] {
                 if let Ok(q) = unknowns.binary_search(&row_idx[p]) {
                     rows[q].push((j, p));
                 }
