@@ -172,6 +172,7 @@ impl CoRotation {
 
     /// Calls `f(indices, Q)` for each triplet of unknowns that turns (a co-rotated node's
     /// translation increments, under ED its jumps, a joint's spatial rows), with its turn.
+    #[inline(always)]
     pub fn for_each_turn(&self, mut f: impl FnMut([usize; 3], &M3<f64>)) {
         let l = self.layout;
         for (a, q) in self.turns.iter().enumerate() {
@@ -211,6 +212,7 @@ impl CoRotation {
 }
 
 /// `v[at] ← Qᵀ v[at]` (`back`) or `Q v[at]`.
+#[inline(always)]
 pub fn turn_triplet(q: &M3<f64>, v: &mut [f64], at: [usize; 3], back: bool) {
     let x = V3(at.map(|i| v[i]));
     let y = if back { q.tmul_v(&x) } else { q.mul_v(&x) };
