@@ -64,10 +64,18 @@ pub struct DecoupledSystem {
 }
 
 impl DecoupledSystem {
-    /// For the real ED tangent `real` whose kernel blocks are at `real_pos`.
-    pub fn new(layout: Layout, real: &NewtonMatrix, real_pos: &KernelPositions) -> Self {
+    /// For the real ED tangent `real` whose kernel blocks are at `real_pos`; the pairs of
+    /// `border` (ED unknowns) are the complex matrix's border (see `contact_border`).
+    pub fn new(
+        layout: Layout,
+        real: &NewtonMatrix,
+        real_pos: &KernelPositions,
+        border: &[usize],
+    ) -> Self {
         let (col_ptr, row_idx) = real.pattern();
-        let matrix = DecoupledMatrix::new(layout, col_ptr, row_idx);
+        let mut matrix = DecoupledMatrix::new(layout, col_ptr, row_idx);
+        let pairs: Vec<usize> = border.iter().map(|&u| layout.pair(u).0).collect();
+        matrix.matrix.set_border(&pairs);
         let pos = real_pos.map(|p| matrix.slots[p]);
         DecoupledSystem { matrix, pos }
     }
@@ -204,6 +212,36 @@ impl DecoupledMatrix {
             self.formed = true;
         }
         self.matrix.factor()
+    }
+
+    /// The complex matrix (its pattern and border).
+    pub fn inner(&self) -> &NewtonMatrix<c64> {
+        &self.matrix
+    }
+
+    /// The complex values as assembled, for a border refresh (see `contact_border`).
+    pub fn values_mut(&mut self) -> &mut [c64] {
+        &mut self.matrix.values
+    }
+
+    /// Turns the sums assembled at value `positions` into the complex matrix's entries (as
+    /// [`Self::factor`] does for all of them).
+    pub fn form(&mut self, positions: &[usize]) {
+        let values = &mut self.matrix.values;
+        for &p in positions {
+            values[p].im *= -0.5 * SQRT2;
+        }
+        for &at in &self.own_multipliers {
+            if positions.binary_search(&at).is_ok() {
+                values[at] = c64::new(2.0, -SQRT2) * values[at].re;
+            }
+        }
+    }
+
+    /// Refactors the border's part of the factors from its formed values (see
+    /// [`NewtonMatrix::refresh_border`]).
+    pub fn refresh_border(&mut self) -> bool {
+        self.matrix.refresh_border()
     }
 
     /// Factors the complex matrix of a real ED tangent's `values` (tests: the map of every

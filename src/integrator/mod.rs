@@ -225,8 +225,12 @@ pub struct Integrator {
     kinds: KindStreak,
     /// Newton iterations per converged step, a running mean (what a dearer solve costs).
     iterations_per_step: f64,
-    /// The sliding contacts' rows and columns, refreshed in kept factors at each step.
+    /// The sliding contacts' rows and columns, refreshed in kept factors at each step: EP's
+    /// matrix's, ED's decoupled system's (built with it).
     contact_border: Option<ContactBorder>,
+    decoupled_border: Option<ContactBorder<faer::c64>>,
+    /// Steps whose kept factors had their border refreshed.
+    pub border_refreshes: usize,
 }
 
 /// A Newton matrix's pattern, each kernel's block positions in it and the block structure
@@ -239,17 +243,18 @@ struct Pattern {
 
 impl Pattern {
     /// Only the structurally nonzero entries enter the pattern: less fill, faster LU. For
-    /// modified Newton (`bordered`), the sliding contacts' unknowns are its border.
+    /// modified Newton (`bordered`), the sliding contacts' unknowns are EP's border (their
+    /// blocks' rows and columns kept whole under either scheme).
     fn of(sys: &System, structure: BlockStructure, bordered: bool) -> Self {
         let n = sys.layout.n_unknowns();
         let blocks = structure.unknowns();
-        let border = match bordered {
-            true => contact_border::sliding_unknowns(sys),
-            false => Vec::new(),
-        };
+        let border = contact_border::border_of(sys, bordered);
         let masks = contact_border::open_border(&blocks, structure.masks(), &border);
         let (mut matrix, pos) = NewtonMatrix::from_blocks(n, &blocks, Some(&masks));
-        matrix.set_border(&border);
+        // Under ED the border is the decoupled system's (`DecoupledSystem::new`).
+        if !sys.layout.ed() {
+            matrix.set_border(&border);
+        }
         Pattern {
             matrix,
             pos: KernelPositions::split(sys, pos),
@@ -261,8 +266,7 @@ impl Pattern {
 impl Integrator {
     pub fn new(sys: &System, settings: &SimulationSettings) -> Self {
         let probe = BlockStructure::probe(sys, settings.dt);
-        let bordered = contact_border::applies(sys, settings.modified_newton);
-        let pattern = Pattern::of(sys, probe, bordered);
+        let pattern = Pattern::of(sys, probe, settings.modified_newton);
         Self::with_settings(sys, settings, pattern)
     }
 
@@ -284,8 +288,8 @@ impl Integrator {
         integ.increment_tol = settings.newton_increment_tol;
         integ.max_iter = settings.max_newton_iterations as usize;
         integ.modified_newton = settings.modified_newton;
-        integ.contact_border = ContactBorder::new(sys, &integ.matrix)
-            .filter(|_| contact_border::applies(sys, settings.modified_newton));
+        integ.contact_border =
+            ContactBorder::new(sys, &integ.matrix).filter(|_| settings.modified_newton);
         integ
     }
 
@@ -294,13 +298,11 @@ impl Integrator {
     /// again. The factors in hand go with the old pattern; the counters, the predictor's
     /// trend and what the step history taught about factors carry on.
     pub fn rebuild_pattern(&mut self, sys: &System, h: f64) {
-        let bordered = contact_border::applies(sys, self.modified_newton);
-        let fresh = Pattern::of(sys, self.structure.reprobe(sys, h), bordered);
+        let fresh = Pattern::of(sys, self.structure.reprobe(sys, h), self.modified_newton);
         let old = std::mem::replace(&mut self.matrix, fresh.matrix);
         self.matrix.numeric_factorizations += old.numeric_factorizations;
         self.matrix.refactorizations += old.refactorizations;
         self.matrix.orderings += old.orderings;
-        self.matrix.border_refreshes += old.border_refreshes;
         self.structure = fresh.structure;
         self.pos = fresh.pos;
         if let Some(d) = self.decoupled.take() {
@@ -311,7 +313,9 @@ impl Integrator {
         self.values_exact = false;
         self.factored_this_solve = false;
         self.corotation = CoRotation::new(sys);
-        self.contact_border = ContactBorder::new(sys, &self.matrix).filter(|_| bordered);
+        self.contact_border =
+            ContactBorder::new(sys, &self.matrix).filter(|_| self.modified_newton);
+        self.decoupled_border = None;
         self.served.restart();
         self.pattern_rebuilds += 1;
     }
@@ -364,6 +368,8 @@ impl Integrator {
             kinds: KindStreak::default(),
             iterations_per_step: 0.0,
             contact_border: None,
+            decoupled_border: None,
+            border_refreshes: 0,
         }
     }
 
@@ -571,9 +577,11 @@ impl Integrator {
         // The decoupled system's kernels write straight into its complex values.
         let (vals, pos) = if decoupled {
             let (layout, matrix, pos) = (self.layout, &self.matrix, &self.pos);
-            let d = self
-                .decoupled
-                .get_or_insert_with(|| DecoupledSystem::new(layout, matrix, pos));
+            let modified = self.modified_newton;
+            let d = self.decoupled.get_or_insert_with(|| {
+                let border = contact_border::border_of(sys, modified);
+                DecoupledSystem::new(layout, matrix, pos, &border)
+            });
             (d.matrix.start_assembly(), &d.pos)
         } else {
             if with_jacobian {

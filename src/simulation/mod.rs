@@ -610,7 +610,7 @@ impl Simulation {
         self.stats.linear_solves = self.integrator.solves;
         self.stats.residual_evaluations = self.integrator.residual_evaluations;
         self.stats.orderings = self.integrator.matrix.orderings;
-        self.stats.border_refreshes = self.integrator.matrix.border_refreshes;
+        self.stats.border_refreshes = self.integrator.border_refreshes;
         self.stats.pattern_misses = self.integrator.pattern_misses;
         self.stats.pattern_rebuilds = self.integrator.pattern_rebuilds;
     }

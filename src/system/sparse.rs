@@ -227,6 +227,11 @@ impl<T: Entry> NewtonMatrix<T> {
         self.pivots = false;
     }
 
+    /// The border's unknowns (ascending; empty without one).
+    pub fn border(&self) -> &[usize] {
+        &self.border
+    }
+
     /// Whether the factors in hand have a border that [`Self::refresh_border`] can refresh
     /// (a leading block singular without it is factored whole).
     pub fn border_ready(&self) -> bool {
