@@ -268,6 +268,9 @@ impl Integrator {
                 let Some(d) = self.decoupled.as_mut() else {
                     return true;
                 };
+                if d.matrix.inner().border().is_empty() {
+                    return true;
+                }
                 if self.decoupled_border.is_none() {
                     self.decoupled_border = ContactBorder::decoupled(sys, d.matrix.inner());
                 }
