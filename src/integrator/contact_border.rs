@@ -483,47 +483,82 @@ mod tests {
         d
     }
 
+    /// The tumbling free collar at 0.3 s, factored afresh (`kind` by the scheme: EP's matrix,
+    /// ED's decoupled system; `read` takes what was factored), then at 0.35 s with those
+    /// factors kept and followed through the beam's turn: the simulation, the integrator
+    /// and what `read` took.
+    fn turned_collar<M>(scheme: Scheme, read: fn(&Integrator) -> M) -> (Simulation, Integrator, M) {
+        let kind = match scheme {
+            Scheme::Ep => Factors::Exact,
+            Scheme::Ed => Factors::Decoupled,
+        };
+        let mut model = example("free_collar.yaml");
+        model.simulation.dt = 5e-3;
+        let mut sim = Simulation::with_scheme(&model, scheme).unwrap();
+        sim.advance_to(0.3).unwrap();
+        let h = sim.settings.dt;
+        let mut integ = Integrator::new(&sim.system, &sim.settings);
+        integ.predict(&sim.system, &sim.state, h);
+        integ.assemble_for(&sim.system, &sim.ctx(h), Some(kind));
+        integ.factor_tangent(kind).unwrap();
+        let factored = read(&integ);
+        integ.corotation.record(&sim.state, &integ.y);
+        sim.advance_to(0.35).unwrap();
+        integ.predict(&sim.system, &sim.state, h);
+        integ.corotation.follow(&sim.state, &integ.y);
+        assert!(integ.corotation.is_turning());
+        (sim, integ, factored)
+    }
+
+    /// A sibling of `integ` with the tangent of `kind` at `integ`'s iterate, assembled and
+    /// (ED's decoupled system) formed.
+    fn current(integ: &Integrator, sim: &Simulation, kind: Factors) -> Integrator {
+        let mut now = integ.sibling(&sim.system, &sim.settings);
+        now.y.copy_from_slice(&integ.y);
+        now.assemble_for(&sim.system, &sim.ctx(sim.settings.dt), Some(kind));
+        if kind == Factors::Decoupled {
+            now.factor_tangent(kind).unwrap();
+        }
+        now
+    }
+
+    /// The update the factors in hand give for residual `b` (as `back_substitute` does).
+    fn kept_solve(integ: &mut Integrator, b: &[f64]) -> Vec<f64> {
+        integ.res.copy_from_slice(b);
+        integ.corotation.to_factored(&mut integ.res);
+        integ.solve_residual();
+        let mut x = integ.res.clone();
+        integ.corotation.from_factored(&mut x);
+        x
+    }
+
+    fn right_hand_side(n: usize) -> Vec<f64> {
+        (0..n).map(|i| (i as f64 * 0.61).sin()).collect()
+    }
+
+    /// The largest difference of `y` from `x`, relative to `x`'s largest entry.
+    fn gap(y: &[f64], x: &[f64]) -> f64 {
+        let scale = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let worst = y
+            .iter()
+            .zip(x)
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        worst / scale
+    }
+
     /// Kept factors of the tumbling free collar's Newton matrix `J₀`, a few steps on with the
     /// beam turned: the refreshed factors solve `D J₀ Dᵀ` with the sliding joint's rows and
     /// columns replaced by the current matrix's — the border turned into the factors' frame.
     #[test]
     fn refreshed_factors_solve_the_kept_matrix_with_the_current_border() {
-        let mut model = example("free_collar.yaml");
-        model.simulation.dt = 5e-3;
-        let mut sim = Simulation::with_scheme(&model, Scheme::Ep).unwrap();
-        sim.advance_to(0.3).unwrap();
-        let (sys, h) = (&sim.system, sim.settings.dt);
-        let mut integ = Integrator::new(sys, &sim.settings);
-        let ctx = sim.ctx(h);
-        integ.predict(sys, &sim.state, h);
-        integ.assemble_for(sys, &ctx, Some(Factors::Exact));
-        let j0 = dense(&integ.matrix);
-        integ.factor_tangent(Factors::Exact).unwrap();
-        integ.corotation.record(&sim.state, &integ.y);
+        let (sim, mut integ, j0) = turned_collar(Scheme::Ep, |i| dense(&i.matrix));
         assert!(integ.matrix.border_ready());
-
-        sim.advance_to(0.35).unwrap();
-        let (sys, ctx) = (&sim.system, sim.ctx(h));
-        integ.predict(sys, &sim.state, h);
-        integ.corotation.follow(&sim.state, &integ.y);
-        assert!(integ.corotation.is_turning());
-        let n = integ.y.len();
-        let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.61).sin()).collect();
-        let kept_solve = |integ: &mut Integrator| {
-            let mut x = b.clone();
-            integ.corotation.to_factored(&mut x);
-            integ.matrix.solve(&mut x);
-            integ.corotation.from_factored(&mut x);
-            x
-        };
-        let stale = kept_solve(&mut integ);
+        let (sys, ctx, n) = (&sim.system, sim.ctx(sim.settings.dt), integ.y.len());
+        let b = right_hand_side(n);
+        let stale = kept_solve(&mut integ, &b);
         assert!(integ.refresh_contact_border(sys, &ctx));
-        let refreshed = kept_solve(&mut integ);
-
-        let mut now = integ.sibling(sys, &sim.settings);
-        now.y.copy_from_slice(&integ.y);
-        now.assemble_for(sys, &ctx, Some(Factors::Exact));
-        let j_now = dense(&now.matrix);
+        let refreshed = kept_solve(&mut integ, &b);
+        let j_now = dense(&current(&integ, &sim, Factors::Exact).matrix);
         let d = turning_matrix(&integ.corotation, n);
         let mut expected = &d * &j0 * d.transpose();
         for &u in &sliding_unknowns(sys) {
@@ -535,10 +570,8 @@ mod tests {
         let x = expected
             .partial_piv_lu()
             .solve(Mat::<f64>::from_fn(n, 1, |i, _| b[i]));
-        let apart = |y: &[f64]| {
-            let scale = (0..n).fold(0.0f64, |m, i| m.max(x[(i, 0)].abs()));
-            (0..n).fold(0.0f64, |m, i| m.max((y[i] - x[(i, 0)]).abs())) / scale
-        };
+        let x: Vec<f64> = (0..n).map(|i| x[(i, 0)]).collect();
+        let apart = |y: &[f64]| gap(y, &x);
         // Two solves of the same matrix (dense and bordered sparse LU): round-off (3e-14
         // measured); the factors before the refresh miss by 1e-2, and so do refreshed ones
         // whose border is not turned (2e-3).
@@ -565,42 +598,14 @@ mod tests {
     /// `D C₀ Dᵀ` with the sliding joint's pairs' rows and columns the current system's.
     #[test]
     fn refreshed_decoupled_factors_solve_the_kept_system_with_the_current_border() {
-        let mut model = example("free_collar.yaml");
-        model.simulation.dt = 5e-3;
-        let mut sim = Simulation::with_scheme(&model, Scheme::Ed).unwrap();
-        sim.advance_to(0.3).unwrap();
-        let (sys, h) = (&sim.system, sim.settings.dt);
-        let mut integ = Integrator::new(sys, &sim.settings);
-        integ.predict(sys, &sim.state, h);
-        integ.assemble_for(sys, &sim.ctx(h), Some(Factors::Decoupled));
-        integ.factor_tangent(Factors::Decoupled).unwrap();
-        let c0 = dense_complex(&integ);
-        integ.corotation.record(&sim.state, &integ.y);
-
-        sim.advance_to(0.35).unwrap();
-        let (sys, ctx) = (&sim.system, sim.ctx(h));
-        integ.predict(sys, &sim.state, h);
-        integ.corotation.follow(&sim.state, &integ.y);
-        assert!(integ.corotation.is_turning());
-        let n = integ.y.len();
-        let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.61).sin()).collect();
-        let kept_solve = |integ: &mut Integrator| {
-            let mut x = b.clone();
-            integ.corotation.to_factored(&mut x);
-            integ.decoupled.as_mut().unwrap().matrix.solve(&mut x);
-            integ.corotation.from_factored(&mut x);
-            x
-        };
-        let stale = kept_solve(&mut integ);
+        let (sim, mut integ, c0) = turned_collar(Scheme::Ed, dense_complex);
+        let (sys, ctx, n) = (&sim.system, sim.ctx(sim.settings.dt), integ.y.len());
+        let b = right_hand_side(n);
+        let stale = kept_solve(&mut integ, &b);
         assert!(integ.refresh_contact_border(sys, &ctx));
         assert_eq!(integ.border_refreshes, 1);
-        let refreshed = kept_solve(&mut integ);
-
-        let mut now = integ.sibling(sys, &sim.settings);
-        now.y.copy_from_slice(&integ.y);
-        now.assemble_for(sys, &ctx, Some(Factors::Decoupled));
-        now.factor_tangent(Factors::Decoupled).unwrap();
-        let c_now = dense_complex(&now);
+        let refreshed = kept_solve(&mut integ, &b);
+        let c_now = dense_complex(&current(&integ, &sim, Factors::Decoupled));
         let l = sys.layout;
         let np = l.n_pairs();
         let d = turning_matrix(&integ.corotation, n);
@@ -634,10 +639,7 @@ mod tests {
                 false => (2.0 * w.re, -2.0 * r2 * w.im),
             };
         }
-        let apart = |y: &[f64]| {
-            let scale = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            (0..n).fold(0.0f64, |m, i| m.max((y[i] - x[i]).abs())) / scale
-        };
+        let apart = |y: &[f64]| gap(y, &x);
         // Round-off (1.5e-14 measured); the factors before the refresh miss by 3e-2, refreshed
         // ones whose border is not turned by 3e-3.
         assert!(apart(&refreshed) < 1e-10, "{:e}", apart(&refreshed));
