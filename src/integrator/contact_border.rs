@@ -345,6 +345,16 @@ impl<T: BorderEntry> ContactBorder<T> {
         run!(7, sys.line_loads, pos.line_load);
     }
 
+    /// Each border entry's dense vector (columns `0..nb`, then rows), its index there and its
+    /// position in the values.
+    fn each_entry(&self, mut f: impl FnMut(usize, usize, usize)) {
+        for (k, entries) in self.columns.iter().chain(&self.rows).enumerate() {
+            for &(i, p) in entries {
+                f(k, i, p);
+            }
+        }
+    }
+
     /// The border's rows and columns `Z` of the current matrix in the kept factors' frame:
     /// the factors serve as `D J₀⁻¹ Dᵀ`, so the border they need is `Dᵀ Z D` (columns
     /// `Dᵀ X D_BB`, rows transposed `Dᵀ Yᵀ D_BB`; `D_BB` turns the contact's own spatial
@@ -353,16 +363,9 @@ impl<T: BorderEntry> ContactBorder<T> {
     fn turn(&mut self, values: &mut [T], c: &CoRotation) {
         let nb = self.unknowns.len();
         let mut dense = std::mem::take(&mut self.dense);
+        self.each_entry(|k, i, p| dense[k][i] = values[p]);
         let (cols, rows) = dense.split_at_mut(nb);
-        for (q, d) in cols.iter_mut().enumerate() {
-            for &(i, p) in &self.columns[q] {
-                d[i] = values[p];
-            }
-        }
         for (q, d) in rows.iter_mut().enumerate() {
-            for &(j, p) in &self.rows[q] {
-                d[j] = values[p];
-            }
             // The border block, from the columns (the same entries).
             for (k, col) in cols.iter().enumerate() {
                 d[self.unknowns[k]] = col[self.unknowns[q]];
@@ -379,16 +382,7 @@ impl<T: BorderEntry> ContactBorder<T> {
                 }
             }
         });
-        for (q, d) in cols.iter().enumerate() {
-            for &(i, p) in &self.columns[q] {
-                values[p] = d[i];
-            }
-        }
-        for (q, d) in rows.iter().enumerate() {
-            for &(j, p) in &self.rows[q] {
-                values[p] = d[j];
-            }
-        }
+        self.each_entry(|k, i, p| values[p] = dense[k][i]);
         for d in dense.iter_mut() {
             for &i in &self.touched {
                 d[i] = T::default();
