@@ -158,7 +158,7 @@ simulation: {dt: 0.001}
         let n = sim.system.layout.n_unknowns();
         let y: Vec<f64> = (0..n).map(|i| 1e-4 * (i as f64).sin()).collect();
         let m = el.unknowns().len();
-        let pos: Vec<usize> = (0..m * m).collect();
+        let pos = flexdyn::elements::own_block_positions(m);
         let mut vals = vec![0.0; m * m];
         let mut res = vec![0.0; n];
         let name = format!("beam_element/cubic_{scheme:?}").to_lowercase();

@@ -14,7 +14,7 @@
 
 use super::section::Mat6;
 use super::shape::MAX_NODES;
-use crate::elements::{add3, v3, Kernel, StepCtx};
+use crate::elements::{add3, v3, Kernel, StepCtx, ValuePos};
 use crate::math::layout::Layout;
 use crate::math::rotation::{cayley, cayley_rotate, rotate_material};
 use crate::math::scalar::Real;
@@ -732,7 +732,7 @@ impl Kernel for BeamElement {
         ctx: &StepCtx,
         y: &[f64],
         res: &mut [f64],
-        jac: Option<(&mut [f64], &[usize])>,
+        jac: Option<(&mut [f64], &[ValuePos])>,
     ) {
         match jac {
             None => crate::elements::eval_kernel(self, ctx, y, res, None),
@@ -748,7 +748,7 @@ impl Kernel for BeamElement {
         y: &[f64],
         res: &mut [f64],
         vals: &mut [f64],
-        pos: &[usize],
+        pos: &[ValuePos],
     ) {
         debug_assert!(ctx.ed());
         super::tangent::decoupled_surrogate(self, ctx, y, res, vals, pos)

@@ -16,7 +16,7 @@ use super::element::{
     mat6_mul, BeamElement, PointStep, O_GROUPS, P_FROM, P_GROUPS, Q_GROUPS, U_FROM, U_GROUPS,
 };
 use super::shape::MAX_NODES;
-use crate::elements::{v3, StepCtx};
+use crate::elements::{v3, StepCtx, ValuePos};
 use crate::math::layout::Layout;
 use crate::math::layout::Scheme;
 use crate::math::rotation::{cayley, cayley_tangent, rodrigues_h};
@@ -42,7 +42,7 @@ pub(super) fn evaluate(
     y: &[f64],
     res: &mut [f64],
     vals: &mut [f64],
-    pos: &[usize],
+    pos: &[ValuePos],
 ) {
     crate::math::wide::wide(
         #[inline(always)]
@@ -57,7 +57,7 @@ fn evaluate_body(
     y: &[f64],
     res: &mut [f64],
     vals: &mut [f64],
-    pos: &[usize],
+    pos: &[ValuePos],
 ) {
     let idx = crate::elements::Kernel::unknowns(el);
     let n = idx.len();
@@ -76,7 +76,7 @@ fn evaluate_body(
                         for (i, entries) in blk.0.iter().enumerate() {
                             let r = (per * a + 3 * rg + i) * n + per * b + 3 * yg;
                             for (&p, v) in pos[r..r + 3].iter().zip(entries) {
-                                vals[p] += v;
+                                vals[p as usize] += v;
                             }
                         }
                     }
@@ -105,9 +105,9 @@ fn evaluate_body(
         for (a, (am, aj)) in el.mass_damping.iter().enumerate() {
             for i in 0..3 {
                 let (t, r) = (per * a + i, per * a + 3 + i);
-                vals[pos[t * n + t]] += am / ctx.h;
+                vals[pos[t * n + t] as usize] += am / ctx.h;
                 for j in 0..3 {
-                    vals[pos[r * n + per * a + 3 + j]] += aj.0[i][j] / ctx.h;
+                    vals[pos[r * n + per * a + 3 + j] as usize] += aj.0[i][j] / ctx.h;
                 }
             }
         }
@@ -128,7 +128,7 @@ pub(super) fn decoupled_surrogate(
     y: &[f64],
     res: &mut [f64],
     vals: &mut [f64],
-    pos: &[usize],
+    pos: &[ValuePos],
 ) {
     crate::math::wide::wide(
         #[inline(always)]
@@ -143,7 +143,7 @@ fn decoupled_surrogate_body(
     y: &[f64],
     res: &mut [f64],
     vals: &mut [f64],
-    pos: &[usize],
+    pos: &[ValuePos],
 ) {
     crate::elements::residual_sized(el, ctx, y, res, None);
     let idx = crate::elements::Kernel::unknowns(el);
@@ -168,8 +168,8 @@ fn decoupled_surrogate_body(
                     let r = (12 * a + 6 + 3 * rg + i) * n + 12 * b + 3 * yg;
                     for j in 0..3 {
                         let v = blk.0[i][j];
-                        vals[pos[r + j]] -= (4.0 / 9.0) * v;
-                        vals[pos[r + j + 6]] += v / 9.0;
+                        vals[pos[r + j] as usize] -= (4.0 / 9.0) * v;
+                        vals[pos[r + j + 6] as usize] += v / 9.0;
                     }
                 }
             }

@@ -12,7 +12,7 @@
 //! steady rotation (centrifugal force and gyroscopic moment): the static solution is then the
 //! rotor's equilibrium in the frame turning with it, from which it spins steadily.
 
-use super::{add3, v3, Kernel, StepCtx};
+use super::{add3, v3, Kernel, StepCtx, ValuePos};
 use crate::math::rotation::{inv_i_minus_half_tilde, rotate_material};
 use crate::math::scalar::Real;
 use crate::math::vec3::{M3, V3};
@@ -41,11 +41,11 @@ impl NodeInertia {
     /// Adds the 3×3 block `blk` at local (`row`, `col`) of the kernel's tangent (a method,
     /// not a closure: closures are not inlined into wide kernels).
     #[inline(always)]
-    fn put(&self, vals: &mut [f64], pos: &[usize], row: usize, col: usize, blk: &M3<f64>) {
+    fn put(&self, vals: &mut [f64], pos: &[ValuePos], row: usize, col: usize, blk: &M3<f64>) {
         let n = self.unknowns.len();
         for (i, bi) in blk.0.iter().enumerate() {
             for (k, v) in bi.iter().enumerate() {
-                vals[pos[(row + i) * n + col + k]] += v;
+                vals[pos[(row + i) * n + col + k] as usize] += v;
             }
         }
     }
@@ -116,7 +116,7 @@ impl Kernel for NodeInertia {
         ctx: &StepCtx,
         y: &[f64],
         res: &mut [f64],
-        jac: Option<(&mut [f64], &[usize])>,
+        jac: Option<(&mut [f64], &[ValuePos])>,
     ) {
         match jac {
             Some((vals, pos)) if !ctx.is_static() => wide(
@@ -193,7 +193,7 @@ impl NodeInertia {
         y: &[f64],
         res: &mut [f64],
         vals: &mut [f64],
-        pos: &[usize],
+        pos: &[ValuePos],
     ) {
         let n = self.unknowns.len();
         let yl = y_local(self, y);

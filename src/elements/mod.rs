@@ -15,6 +15,18 @@ use crate::math::vec3::V3;
 use crate::math::wide::wide;
 use crate::state::State;
 
+/// Where a kernel's local tangent entry lands in a matrix's values (`vals[pos[i·n + j]]`).
+/// Assembly reads these tables and writes the values at random: 32 bits halve the tables
+/// (a pattern of 2³² entries would need 32 GB of values, far beyond any model here).
+pub type ValuePos = u32;
+
+/// The positions of an `n × n` block in a matrix of its own (row-major): for probing a
+/// kernel's block alone.
+pub fn own_block_positions(n: usize) -> Vec<ValuePos> {
+    let len = ValuePos::try_from(n * n).expect("a kernel's block has fewer than 2³² entries");
+    (0..len).collect()
+}
+
 /// Largest local block (unknowns of one kernel). A sliding clamp on cubic elements under ED
 /// has the most: a window of 10 beam nodes and the follower (11×12), ζ and its jump, and
 /// 2×6 multipliers = 146.
@@ -84,7 +96,7 @@ pub trait Kernel {
         ctx: &StepCtx,
         y: &[f64],
         res: &mut [f64],
-        jac: Option<(&mut [f64], &[usize])>,
+        jac: Option<(&mut [f64], &[ValuePos])>,
     ) where
         Self: Sized,
     {
@@ -101,7 +113,7 @@ pub trait Kernel {
         y: &[f64],
         res: &mut [f64],
         vals: &mut [f64],
-        pos: &[usize],
+        pos: &[ValuePos],
     ) where
         Self: Sized,
     {
@@ -126,7 +138,7 @@ pub fn eval_kernel<K: Kernel>(
     ctx: &StepCtx,
     y: &[f64],
     res: &mut [f64],
-    jac: Option<(&mut [f64], &[usize])>,
+    jac: Option<(&mut [f64], &[ValuePos])>,
 ) {
     let idx = k.unknowns();
     let n = idx.len();
@@ -212,7 +224,7 @@ fn dual_passes<K: Kernel, const M: usize, const W: usize>(
     y: &[f64],
     res: &mut [f64],
     vals: &mut [f64],
-    pos: &[usize],
+    pos: &[ValuePos],
 ) {
     let idx = k.unknowns();
     let n = idx.len();
@@ -238,7 +250,7 @@ fn dual_passes<K: Kernel, const M: usize, const W: usize>(
         let width = W.min(n - start);
         for i in 0..n {
             for d in 0..width {
-                vals[pos[i * n + start + d]] += rl[i].du[d];
+                vals[pos[i * n + start + d] as usize] += rl[i].du[d];
             }
         }
         start += W;
@@ -250,7 +262,7 @@ fn dual_passes<K: Kernel, const M: usize, const W: usize>(
 /// about a lever arm's own axis) count as zero.
 pub fn block_structure<K: Kernel>(k: &K, ctx: &StepCtx, y: &[f64]) -> Vec<bool> {
     let n = k.unknowns().len();
-    let pos: Vec<usize> = (0..n * n).collect();
+    let pos = own_block_positions(n);
     let mut vals = vec![0.0; n * n];
     let mut res = vec![0.0; y.len()];
     k.evaluate(ctx, y, &mut res, Some((&mut vals, &pos)));
@@ -273,7 +285,7 @@ pub fn tangent_structure<K: Kernel>(k: &K, ctx: &StepCtx, y: &[f64]) -> Vec<bool
 /// The nonzero entries [`Kernel::evaluate_decoupled`] writes (row-major) at `y`.
 pub fn decoupled_structure<K: Kernel>(k: &K, ctx: &StepCtx, y: &[f64]) -> Vec<bool> {
     let n = k.unknowns().len();
-    let pos: Vec<usize> = (0..n * n).collect();
+    let pos = own_block_positions(n);
     let mut vals = vec![0.0; n * n];
     let mut res = vec![0.0; y.len()];
     k.evaluate_decoupled(ctx, y, &mut res, &mut vals, &pos);
@@ -305,7 +317,7 @@ pub mod fd_harness {
         let idx = k.unknowns();
         let n = idx.len();
         let ng = y.len();
-        let pos: Vec<usize> = (0..n * n).collect();
+        let pos = own_block_positions(n);
         let mut vals = vec![0.0; n * n];
         let mut res = vec![0.0; ng];
         k.evaluate(ctx, y, &mut res, Some((&mut vals, &pos)));

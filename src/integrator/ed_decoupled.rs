@@ -317,7 +317,7 @@ mod tests {
             .collect();
         let all: Vec<usize> = (0..n).collect();
         let (mut real, pos) = NewtonMatrix::<f64>::from_blocks(n, &[&all], None);
-        let mut set = |i: usize, j: usize, v: f64| real.values[pos[0][i * n + j]] = v;
+        let mut set = |i: usize, j: usize, v: f64| real.values[pos[0][i * n + j] as usize] = v;
         for a in 0..nm {
             let (fa, ja) = layout.unpair(a);
             for c in 0..nm {

@@ -22,7 +22,7 @@ use positions::KernelPositions;
 use renewal::{KindStreak, Renewal};
 use structure::BlockStructure;
 
-use crate::elements::{Kernel, StepCtx};
+use crate::elements::{Kernel, StepCtx, ValuePos};
 use crate::math::layout::Layout;
 use crate::math::rotation::{cayley, check_step_rotation, orthonormalize};
 use crate::math::vec3::V3;
@@ -600,7 +600,7 @@ impl Integrator {
                 run!(
                     $list,
                     $pos,
-                    |k: &_, jac: Option<(&mut [f64], &[usize])>| match jac {
+                    |k: &_, jac: Option<(&mut [f64], &[ValuePos])>| match jac {
                         Some((vals, pos)) if decoupled => {
                             Kernel::evaluate_decoupled(k, ctx, y, res, vals, pos)
                         }

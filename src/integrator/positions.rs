@@ -1,26 +1,27 @@
 //! Where each kernel's tangent block goes in a matrix's values: per kernel, the value
 //! position of each of its `n × n` local entries (row-major), by kernel list.
 
+use crate::elements::ValuePos;
 use crate::system::System;
 
 /// Value positions of every kernel's tangent block, one list per kernel kind (in the order
 /// the system holds them).
 #[derive(Clone, Debug, Default)]
 pub struct KernelPositions {
-    pub inertia: Vec<Vec<usize>>,
-    pub beam: Vec<Vec<usize>>,
-    pub joint: Vec<Vec<usize>>,
-    pub spring: Vec<Vec<usize>>,
-    pub drive: Vec<Vec<usize>>,
-    pub friction: Vec<Vec<usize>>,
-    pub load: Vec<Vec<usize>>,
-    pub line_load: Vec<Vec<usize>>,
+    pub inertia: Vec<Vec<ValuePos>>,
+    pub beam: Vec<Vec<ValuePos>>,
+    pub joint: Vec<Vec<ValuePos>>,
+    pub spring: Vec<Vec<ValuePos>>,
+    pub drive: Vec<Vec<ValuePos>>,
+    pub friction: Vec<Vec<ValuePos>>,
+    pub load: Vec<Vec<ValuePos>>,
+    pub line_load: Vec<Vec<ValuePos>>,
 }
 
 impl KernelPositions {
     /// Splits the blocks' positions, given in the system's kernel order (inertias, beams,
     /// joints, springs, drives, frictions, loads, line loads), by kind.
-    pub fn split(sys: &System, mut pos: Vec<Vec<usize>>) -> Self {
+    pub fn split(sys: &System, mut pos: Vec<Vec<ValuePos>>) -> Self {
         let mut tail = |len: usize| pos.split_off(pos.len() - len);
         let line_load = tail(sys.line_loads.len());
         let load = tail(sys.loads.len());
@@ -43,7 +44,10 @@ impl KernelPositions {
 
     /// The same blocks' positions in another matrix's values: `to(p)` for each position `p`.
     pub fn map(&self, to: impl Fn(usize) -> usize) -> Self {
-        let each = |lists: &Vec<Vec<usize>>| -> Vec<Vec<usize>> {
+        let to = |p: ValuePos| {
+            ValuePos::try_from(to(p as usize)).expect("fewer than 2³² matrix entries")
+        };
+        let each = |lists: &Vec<Vec<ValuePos>>| -> Vec<Vec<ValuePos>> {
             lists
                 .iter()
                 .map(|block| block.iter().map(|&p| to(p)).collect())

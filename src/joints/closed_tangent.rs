@@ -20,7 +20,7 @@ use super::equations::{
 };
 use super::stiffness::Stiffness;
 use super::{zero_rows, ConstraintLaw, JointKernel, JointState, MAX_ROWS, NCOL};
-use crate::elements::{eval_kernel, StepCtx};
+use crate::elements::{eval_kernel, StepCtx, ValuePos};
 use crate::math::rotation::cayley_tangent;
 use crate::math::vec3::{M3, V3};
 
@@ -35,7 +35,7 @@ pub trait ClosedTangent<const NC: usize>: StepEquations<NC> {
         ctx: &StepCtx,
         y: &[f64],
         res: Option<&mut [f64]>,
-        jac: (&mut [f64], &[usize]),
+        jac: (&mut [f64], &[ValuePos]),
         tangent: Tangent,
     );
 }
@@ -47,7 +47,7 @@ pub fn evaluate<K: ClosedTangent<NC>, const NC: usize>(
     ctx: &StepCtx,
     y: &[f64],
     res: &mut [f64],
-    jac: Option<(&mut [f64], &[usize])>,
+    jac: Option<(&mut [f64], &[ValuePos])>,
 ) {
     match jac {
         Some(jac) if !ctx.ed() && !ctx.is_static() => {
@@ -66,7 +66,7 @@ pub fn evaluate_decoupled<K: ClosedTangent<NC>, const NC: usize>(
     y: &[f64],
     res: &mut [f64],
     vals: &mut [f64],
-    pos: &[usize],
+    pos: &[ValuePos],
 ) {
     eval_kernel(k, ctx, y, res, None);
     k.evaluate_closed(&ep_equations(ctx), y, None, (vals, pos), Tangent::Decoupled)
@@ -131,7 +131,7 @@ impl BlockColumns<'_> {
         tangent: Tangent,
         n: usize,
         vals: &mut [f64],
-        pos: &[usize],
+        pos: &[ValuePos],
     ) {
         for (k, side) in self.sides.iter().enumerate() {
             let Some(side) = side else { continue };
@@ -222,7 +222,7 @@ impl ClosedTangent<NCOL> for JointKernel {
         ctx: &StepCtx,
         y: &[f64],
         res: Option<&mut [f64]>,
-        (vals, pos): (&mut [f64], &[usize]),
+        (vals, pos): (&mut [f64], &[ValuePos]),
         tangent: Tangent,
     ) {
         debug_assert!(!ctx.ed() && !ctx.is_static());

@@ -21,7 +21,7 @@
 //! multipliers and jumps in closed form from the same pass's values ([`add_linear_columns`]).
 
 use super::MAX_ROWS;
-use crate::elements::{add3, eval_kernel, v3, Kernel, StepCtx};
+use crate::elements::{add3, eval_kernel, v3, Kernel, StepCtx, ValuePos};
 use crate::math::layout::Layout;
 use crate::math::layout::Scheme;
 use crate::math::scalar::{Dual, Real};
@@ -268,7 +268,7 @@ pub fn evaluate_constraint<K: StepEquations<NC>, const NC: usize>(
     ctx: &StepCtx,
     y: &[f64],
     res: &mut [f64],
-    jac: Option<(&mut [f64], &[usize])>,
+    jac: Option<(&mut [f64], &[ValuePos])>,
 ) {
     let Some((vals, pos)) = jac else {
         return eval_kernel(k, ctx, y, res, None);
@@ -292,7 +292,7 @@ pub fn evaluate_constraint_decoupled<K: StepEquations<NC>, const NC: usize>(
     y: &[f64],
     res: &mut [f64],
     vals: &mut [f64],
-    pos: &[usize],
+    pos: &[ValuePos],
 ) {
     debug_assert!(ctx.ed());
     if k.unknowns().len() > MAX_SPLIT_LOCAL {
@@ -325,7 +325,7 @@ fn split<K: StepEquations<NC>, const NC: usize>(
     k: &K,
     ctx: &StepCtx,
     y: &[f64],
-    out: (Option<&mut [f64]>, &mut [f64], &[usize]),
+    out: (Option<&mut [f64]>, &mut [f64], &[ValuePos]),
     tangent: Tangent,
 ) {
     let mut slots = [0usize; NC];
@@ -354,7 +354,7 @@ fn split_pass<K: StepEquations<NC>, const NC: usize, const W: usize, const M: us
     k: &K,
     ctx: &StepCtx,
     y: &[f64],
-    (res, vals, pos): (Option<&mut [f64]>, &mut [f64], &[usize]),
+    (res, vals, pos): (Option<&mut [f64]>, &mut [f64], &[ValuePos]),
     slots: &[usize],
     tangent: Tangent,
 ) {
@@ -415,7 +415,7 @@ fn add_dual_columns<const W: usize>(
     jump_of: &[Option<usize>],
     tangent: Tangent,
     vals: &mut [f64],
-    pos: &[usize],
+    pos: &[ValuePos],
 ) {
     let n = rd.len();
     for (i, r) in rd.iter().enumerate() {
@@ -435,15 +435,15 @@ pub fn add_geometric_entry(
     n: usize,
     (i, l, v): (usize, usize, f64),
     vals: &mut [f64],
-    pos: &[usize],
+    pos: &[ValuePos],
 ) {
     match (tangent, jump_of[i]) {
         (Tangent::Decoupled, Some(ji)) => {
             let jl = jump_of[l].expect("a geometric slot has a jump under ED");
-            vals[pos[ji * n + l]] -= (4.0 / 9.0) * v;
-            vals[pos[ji * n + jl]] += v / 9.0;
+            vals[pos[ji * n + l] as usize] -= (4.0 / 9.0) * v;
+            vals[pos[ji * n + jl] as usize] += v / 9.0;
         }
-        _ => vals[pos[i * n + l]] += v,
+        _ => vals[pos[i * n + l] as usize] += v,
     }
 }
 
@@ -538,19 +538,19 @@ impl ColumnMap<'_, f64> {
 /// The tangent columns of the multipliers λ (and under ED λ_d and the jump velocities) of
 /// [`add_constraint_equations`], which is linear in them: `s B^Dᵀ` on the momentum rows;
 /// `(s/12)(B_f − B_i)ᵀ` and `−(s/12)(B_i + B_f)ᵀ` for λ_d; `s (B_i + B_f)` on the j-condition's
-/// jump columns (its `h` cancels the velocities' `1/h`). `vals[pos[row * n + col]]`.
+/// jump columns (its `h` cancels the velocities' `1/h`). `vals[pos[row * n + col] as usize]`.
 pub fn add_linear_columns<const NC: usize>(
     ctx: &StepCtx,
     map: &ColumnMap<f64>,
     terms: &ConstraintTerms<f64, NC>,
     n: usize,
     vals: &mut [f64],
-    pos: &[usize],
+    pos: &[ValuePos],
 ) {
     let s = ctx.s;
     let per = map.per;
     let at = if ctx.is_static() { At::End } else { At::Start };
-    let mut put = |row: usize, col: usize, v: f64| vals[pos[row * n + col]] += v;
+    let mut put = |row: usize, col: usize, v: f64| vals[pos[row * n + col] as usize] += v;
     for r in 0..map.n_rows {
         let lam = map.mult + per * r;
         map.for_each_entry(&terms.b[r], at, false, |slot, v| put(slot, lam, s * v));
@@ -583,7 +583,7 @@ pub fn add_translation_columns<const NC: usize>(
     terms: &ConstraintTerms<f64, NC>,
     n: usize,
     vals: &mut [f64],
-    pos: &[usize],
+    pos: &[ValuePos],
 ) {
     let s = ctx.s;
     for r in 0..map.n_rows {
@@ -591,9 +591,9 @@ pub fn add_translation_columns<const NC: usize>(
         for node in map.nodes {
             for c in 0..3 {
                 let col = node.delta + c;
-                vals[pos[row * n + col]] += s * terms.b[r][node.col + c];
+                vals[pos[row * n + col] as usize] += s * terms.b[r][node.col + c];
                 if let Some((_, b_f)) = terms.rates {
-                    vals[pos[(row + 1) * n + col]] -= 2.0 * s * b_f[r][node.col + c];
+                    vals[pos[(row + 1) * n + col] as usize] -= 2.0 * s * b_f[r][node.col + c];
                 }
             }
         }

@@ -26,7 +26,7 @@
 //! Statics leave friction out (`F = 0`: a static equilibrium with friction is not unique).
 
 use crate::beam::path::ArcMap;
-use crate::elements::{eval_kernel, tangent_structure, Kernel, StepCtx};
+use crate::elements::{eval_kernel, tangent_structure, Kernel, StepCtx, ValuePos};
 use crate::math::layout::Layout;
 use crate::math::scalar::Real;
 use crate::math::vec3::V3;
@@ -51,11 +51,11 @@ const IDLE: f64 = 2.0;
 /// multipliers, its own pair.
 const MAX_UNKNOWNS: usize = 10;
 /// Row-major positions of a block in itself.
-const BLOCK_POSITIONS: [usize; MAX_UNKNOWNS * MAX_UNKNOWNS] = {
+const BLOCK_POSITIONS: [ValuePos; MAX_UNKNOWNS * MAX_UNKNOWNS] = {
     let mut p = [0; MAX_UNKNOWNS * MAX_UNKNOWNS];
     let mut i = 0;
     while i < p.len() {
-        p[i] = i;
+        p[i] = i as ValuePos;
         i += 1;
     }
     p
@@ -729,7 +729,7 @@ impl Kernel for Friction {
         y: &[f64],
         res: &mut [f64],
         vals: &mut [f64],
-        pos: &[usize],
+        pos: &[ValuePos],
     ) {
         let n = self.unknowns.len();
         let mut block = [0.0; MAX_UNKNOWNS * MAX_UNKNOWNS];
@@ -747,7 +747,7 @@ impl Kernel for Friction {
                 if slipping && i == own && j != own {
                     continue;
                 }
-                vals[pos[i * n + j]] += block[i * n + j];
+                vals[pos[i * n + j] as usize] += block[i * n + j];
             }
         }
     }

@@ -25,7 +25,7 @@ pub mod spherical;
 pub mod stiffness;
 pub mod universal;
 
-use crate::elements::{v3, Kernel, StepCtx};
+use crate::elements::{v3, Kernel, StepCtx, ValuePos};
 use crate::math::layout::Layout;
 use crate::math::rotation::rotate_material;
 use crate::math::scalar::Real;
@@ -322,7 +322,7 @@ impl Kernel for Joint {
         ctx: &StepCtx,
         y: &[f64],
         res: &mut [f64],
-        jac: Option<(&mut [f64], &[usize])>,
+        jac: Option<(&mut [f64], &[ValuePos])>,
     ) {
         each_joint!(self, j => j.evaluate(ctx, y, res, jac))
     }
@@ -332,7 +332,7 @@ impl Kernel for Joint {
         y: &[f64],
         res: &mut [f64],
         vals: &mut [f64],
-        pos: &[usize],
+        pos: &[ValuePos],
     ) {
         each_joint!(self, j => j.evaluate_decoupled(ctx, y, res, vals, pos))
     }
@@ -691,7 +691,7 @@ impl Kernel for JointKernel {
         ctx: &StepCtx,
         y: &[f64],
         res: &mut [f64],
-        jac: Option<(&mut [f64], &[usize])>,
+        jac: Option<(&mut [f64], &[ValuePos])>,
     ) {
         closed_tangent::evaluate(self, ctx, y, res, jac)
     }
@@ -702,7 +702,7 @@ impl Kernel for JointKernel {
         y: &[f64],
         res: &mut [f64],
         vals: &mut [f64],
-        pos: &[usize],
+        pos: &[ValuePos],
     ) {
         closed_tangent::evaluate_decoupled(self, ctx, y, res, vals, pos)
     }
@@ -1198,7 +1198,7 @@ mod kernel_tests {
                         })
                         .collect();
                     let n = k.unknowns().len();
-                    let pos: Vec<usize> = (0..n * n).collect();
+                    let pos = crate::elements::own_block_positions(n);
                     let (mut jc, mut jd) = (vec![0.0; n * n], vec![0.0; n * n]);
                     let (mut rc, mut rd) = (vec![0.0; y.len()], vec![0.0; y.len()]);
                     if scheme == Scheme::Ep {
@@ -1283,9 +1283,9 @@ mod kernel_tests {
                     }
                 }
                 // Dense global tangents through identity positions.
-                let dense = |k: &JointKernel| -> (Vec<usize>, usize) {
+                let dense = |k: &JointKernel| -> (Vec<ValuePos>, usize) {
                     let n = k.unknowns().len();
-                    ((0..n * n).collect(), n)
+                    (crate::elements::own_block_positions(n), n)
                 };
                 let k_ep = kernel(&ep);
                 let (pos, n_ep) = dense(&k_ep);

@@ -31,7 +31,7 @@ use super::{
 };
 use crate::beam::path::{ArcMap, BeamPath, NodeWeights};
 use crate::beam::shape::MAX_NODES;
-use crate::elements::{v3, Kernel, StepCtx};
+use crate::elements::{v3, Kernel, StepCtx, ValuePos};
 use crate::math::layout::Layout;
 use crate::math::rotation::rotate_material;
 use crate::math::scalar::{Dual, Real};
@@ -239,7 +239,7 @@ impl Kernel for NodeShare<'_> {
         ctx: &StepCtx,
         y: &[f64],
         res: &mut [f64],
-        jac: Option<(&mut [f64], &[usize])>,
+        jac: Option<(&mut [f64], &[ValuePos])>,
     ) {
         closed_tangent::evaluate(self, ctx, y, res, jac)
     }
@@ -250,7 +250,7 @@ impl Kernel for NodeShare<'_> {
         y: &[f64],
         res: &mut [f64],
         vals: &mut [f64],
-        pos: &[usize],
+        pos: &[ValuePos],
     ) {
         closed_tangent::evaluate_decoupled(self, ctx, y, res, vals, pos)
     }
@@ -265,7 +265,7 @@ impl ClosedTangent<SHARE_NC> for NodeShare<'_> {
         ctx: &StepCtx,
         y: &[f64],
         res: Option<&mut [f64]>,
-        (vals, pos): (&mut [f64], &[usize]),
+        (vals, pos): (&mut [f64], &[ValuePos]),
         tangent: Tangent,
     ) {
         let n = self.len;
@@ -1103,13 +1103,13 @@ impl SlidingJoint {
         &self,
         ctx: &StepCtx,
         y: &[f64],
-        pos: &[usize],
-        mut f: impl FnMut(&NodeShare, &[usize]),
+        pos: &[ValuePos],
+        mut f: impl FnMut(&NodeShare, &[ValuePos]),
     ) {
         let n = self.unknowns.len();
         let zf = ctx.state.coords[self.coord] + y[self.unknowns[self.coord_slot]];
         let w = self.window_weights::<f64>(ctx, zf);
-        let mut spos = [0usize; MAX_SHARE * MAX_SHARE];
+        let mut spos = [0 as ValuePos; MAX_SHARE * MAX_SHARE];
         for j in (0..=(self.last_node() - self.first_node())).filter(|&j| w.active(j)) {
             let share = self.share_kernel(j);
             let ns = share.len;
@@ -1147,7 +1147,7 @@ impl Kernel for SlidingJoint {
         ctx: &StepCtx,
         y: &[f64],
         res: &mut [f64],
-        jac: Option<(&mut [f64], &[usize])>,
+        jac: Option<(&mut [f64], &[ValuePos])>,
     ) {
         let Some((vals, pos)) = jac else {
             return crate::elements::eval_kernel(self, ctx, y, res, None);
@@ -1165,7 +1165,7 @@ impl Kernel for SlidingJoint {
         y: &[f64],
         res: &mut [f64],
         vals: &mut [f64],
-        pos: &[usize],
+        pos: &[ValuePos],
     ) {
         self.for_each_share(ctx, y, pos, |share, spos| {
             share.evaluate_decoupled(ctx, y, res, vals, spos)
@@ -1440,7 +1440,7 @@ mod tests {
                             let y = unknowns(&layout, dz, 1.0);
                             let ctx = step_ctx(layout, &state, None);
                             let n = j.unknowns().len();
-                            let pos: Vec<usize> = (0..n * n).collect();
+                            let pos = crate::elements::own_block_positions(n);
                             let (mut jc, mut jd) = (vec![0.0; n * n], vec![0.0; n * n]);
                             let (mut rc, mut rd) = (vec![0.0; y.len()], vec![0.0; y.len()]);
                             if scheme == Scheme::Ep {

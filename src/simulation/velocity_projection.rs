@@ -316,11 +316,11 @@ fn symmetric_matrix(n: usize, entries: &[(usize, usize, f64)]) -> Option<NewtonM
     let (mut m, pos) = NewtonMatrix::from_blocks(n, &refs, None);
     for (&(i, j, v), p) in entries.iter().zip(&pos) {
         if i == j {
-            m.values[p[0]] += v;
+            m.values[p[0] as usize] += v;
         } else {
             // Block [i, j], row-major: (i, j) at 1, (j, i) at 2.
-            m.values[p[1]] += v;
-            m.values[p[2]] += v;
+            m.values[p[1] as usize] += v;
+            m.values[p[2] as usize] += v;
         }
     }
     m.factor().ok()?;

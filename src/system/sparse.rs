@@ -22,6 +22,7 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::traits::ComplexField;
 
 use super::refactor::{Scalar, StaticPivotLu};
+use crate::elements::ValuePos;
 
 /// The scalars a Newton matrix holds: `f64`, or `faer::c64` for ED's decoupled complex
 /// system (`integrator::ed_decoupled`).
@@ -71,7 +72,7 @@ impl<T: Entry> NewtonMatrix<T> {
         n: usize,
         blocks: &[&[usize]],
         masks: Option<&[Vec<bool>]>,
-    ) -> (Self, Vec<Vec<usize>>) {
+    ) -> (Self, Vec<Vec<ValuePos>>) {
         let keep =
             |b: usize, i: usize, j: usize| masks.is_none_or(|m| m[b][i * blocks[b].len() + j]);
         let mut cols: Vec<Vec<usize>> = vec![Vec::new(); n];
@@ -99,18 +100,20 @@ impl<T: Entry> NewtonMatrix<T> {
             col_ptr.push(row_idx.len());
         }
         let dump = row_idx.len();
+        let value_pos = |p: usize| ValuePos::try_from(p).expect("fewer than 2³² matrix entries");
         let positions = blocks
             .iter()
             .enumerate()
             .map(|(bi, b)| {
                 let m = b.len();
-                let mut p = vec![dump; m * m];
+                let mut p = vec![value_pos(dump); m * m];
                 for (i, &gi) in b.iter().enumerate() {
                     for (j, &gj) in b.iter().enumerate() {
                         if keep(bi, i, j) {
                             let col = &row_idx[col_ptr[gj]..col_ptr[gj + 1]];
-                            p[i * m + j] =
-                                col_ptr[gj] + col.binary_search(&gi).expect("entry in pattern");
+                            p[i * m + j] = value_pos(
+                                col_ptr[gj] + col.binary_search(&gi).expect("entry in pattern"),
+                            );
                         }
                     }
                 }
@@ -602,7 +605,7 @@ mod tests {
         let (mut m, pos) = NewtonMatrix::from_blocks(30, &refs, None);
         for (k, p) in pos.iter().enumerate() {
             for (e, &at) in p.iter().enumerate() {
-                m.values[at] += value(k, e / 6, e % 6);
+                m.values[at as usize] += value(k, e / 6, e % 6);
             }
         }
         m
@@ -698,14 +701,14 @@ mod tests {
         m.set_border(&[30, 31, 32, 33]);
         for (k, p) in pos[..9].iter().enumerate() {
             for (e, &at) in p.iter().enumerate() {
-                m.values[at] += value(k, e / 6, e % 6);
+                m.values[at as usize] += value(k, e / 6, e % 6);
             }
         }
         for (e, &at) in pos[9].iter().enumerate() {
             let (i, j) = (e / 10, e % 10);
             // Node–node entries are the chain's; the multipliers' block is zero.
             if (i >= 6 || j >= 6) && !(i >= 6 && j >= 6 && i < 9 && j < 9) {
-                m.values[at] += border(i, j);
+                m.values[at as usize] += border(i, j);
             }
         }
         let at_border = m.border_positions();
@@ -863,8 +866,9 @@ mod tests {
         let (mut c, _) = NewtonMatrix::<c64>::from_blocks(39, &blocks, None);
         for (k, p) in pos.iter().enumerate() {
             for (e, &at) in p.iter().enumerate() {
-                m.values[at] += value(k, e / 4, e % 4);
-                c.values[at] += c64::new(value(k, e / 4, e % 4), 0.2 * value(k + 3, e % 4, e / 4));
+                m.values[at as usize] += value(k, e / 4, e % 4);
+                c.values[at as usize] +=
+                    c64::new(value(k, e / 4, e % 4), 0.2 * value(k + 3, e % 4, e / 4));
             }
         }
         let b: Vec<f64> = (0..39).map(|i| (i as f64 * 0.61).cos()).collect();
@@ -899,10 +903,10 @@ mod tests {
         let k1 = [4.0, 1.0, 1.0, 2.0];
         let k2 = [3.0, 2.0, 2.0, 6.0];
         for (p, v) in pos[0].iter().zip(k1) {
-            m.values[*p] += v;
+            m.values[*p as usize] += v;
         }
         for (p, v) in pos[1].iter().zip(k2) {
-            m.values[*p] += v;
+            m.values[*p as usize] += v;
         }
         m.factor().unwrap();
         let mut x = [1.0, 2.0, 3.0];
@@ -930,9 +934,9 @@ mod tests {
         let mut assemble = |outside: f64| {
             m.clear();
             for (&p, v) in pos[0].iter().zip(k) {
-                m.values[p] += v;
+                m.values[p as usize] += v;
             }
-            m.values[pos[0][2]] += outside;
+            m.values[pos[0][2] as usize] += outside;
             m.wrote_outside(1e-10)
         };
         assert!(!assemble(0.0));
