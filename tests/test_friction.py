@@ -414,7 +414,9 @@ def test_a_prescribed_slip_at_rest_has_no_friction():
     t = res["time"].values
     moving, resting = (t > 0.05) & (t < 0.95), t > 1.05
     np.testing.assert_allclose(res["d.force"].values[moving], 0.25 * 2.0 * G, rtol=1e-6)
-    assert np.all(res["f.force"].values[resting] == 0.0)
+    # Zero to round-off, as the drive's force: the held coordinate's slip rate is zero only to
+    # the solve's round-off (which pivots the LU keeps decides whether it comes out 0 or 1e-44).
+    assert np.max(np.abs(res["f.force"].values[resting])) < 1e-9
     assert np.max(np.abs(res["d.force"].values[resting])) < 1e-9
 
 

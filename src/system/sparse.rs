@@ -652,10 +652,18 @@ mod tests {
     fn a_pivot_that_became_small_is_chosen_again() {
         let mut m = chain(entry);
         m.factor().unwrap();
-        // Scale every diagonal entry down 1000×: the kept pivots fall below 0.1 of their
-        // columns' largest candidates, so the refactorization declines and pivots afresh.
-        for (j, row) in m.to_dense().iter().enumerate() {
-            m.add_to_diagonal(j, -0.999 * row[j]);
+        // In the column eliminated first (no updates reach it) every entry but the pivot
+        // partial pivoting chose — its largest — grows 10⁶×: the kept pivot falls far below
+        // PIVOT_THRESHOLD of the column's largest candidate, so the refactorization declines
+        // and pivots afresh.
+        let first = m.col_perm()[0];
+        let column = m.col_ptr[first]..m.col_ptr[first + 1];
+        let pivot = column
+            .clone()
+            .max_by(|&a, &b| m.values[a].abs().total_cmp(&m.values[b].abs()))
+            .unwrap();
+        for p in column.filter(|&p| p != pivot) {
+            m.values[p] *= 1e6;
         }
         m.factor().unwrap();
         assert_eq!((m.numeric_factorizations, m.refactorizations), (2, 0));
