@@ -20,11 +20,16 @@ use crate::state::State;
 /// (a pattern of 2³² entries would need 32 GB of values, far beyond any model here).
 pub type ValuePos = u32;
 
+/// Value position `p` as stored in a block's table (a pattern of 2³² entries cannot be held
+/// in memory first).
+pub fn value_pos(p: usize) -> ValuePos {
+    ValuePos::try_from(p).expect("fewer than 2³² matrix entries")
+}
+
 /// The positions of an `n × n` block in a matrix of its own (row-major): for probing a
 /// kernel's block alone.
 pub fn own_block_positions(n: usize) -> Vec<ValuePos> {
-    let len = ValuePos::try_from(n * n).expect("a kernel's block has fewer than 2³² entries");
-    (0..len).collect()
+    (0..value_pos(n * n)).collect()
 }
 
 /// Largest local block (unknowns of one kernel). A sliding clamp on cubic elements under ED

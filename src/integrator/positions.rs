@@ -1,7 +1,7 @@
 //! Where each kernel's tangent block goes in a matrix's values: per kernel, the value
 //! position of each of its `n × n` local entries (row-major), by kernel list.
 
-use crate::elements::ValuePos;
+use crate::elements::{value_pos, ValuePos};
 use crate::system::System;
 
 /// Value positions of every kernel's tangent block, one list per kernel kind (in the order
@@ -44,9 +44,7 @@ impl KernelPositions {
 
     /// The same blocks' positions in another matrix's values: `to(p)` for each position `p`.
     pub fn map(&self, to: impl Fn(usize) -> usize) -> Self {
-        let to = |p: ValuePos| {
-            ValuePos::try_from(to(p as usize)).expect("fewer than 2³² matrix entries")
-        };
+        let to = |p: ValuePos| value_pos(to(p as usize));
         let each = |lists: &Vec<Vec<ValuePos>>| -> Vec<Vec<ValuePos>> {
             lists
                 .iter()

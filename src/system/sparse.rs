@@ -22,7 +22,7 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::traits::ComplexField;
 
 use super::refactor::{Scalar, StaticPivotLu};
-use crate::elements::ValuePos;
+use crate::elements::{value_pos, ValuePos};
 
 /// The scalars a Newton matrix holds: `f64`, or `faer::c64` for ED's decoupled complex
 /// system (`integrator::ed_decoupled`).
@@ -100,7 +100,6 @@ impl<T: Entry> NewtonMatrix<T> {
             col_ptr.push(row_idx.len());
         }
         let dump = row_idx.len();
-        let value_pos = |p: usize| ValuePos::try_from(p).expect("fewer than 2³² matrix entries");
         let positions = blocks
             .iter()
             .enumerate()
