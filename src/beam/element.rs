@@ -638,31 +638,36 @@ impl BeamElement {
     }
 
     /// Strain energy `Σ_g w ½ εᵀ C ε` of a state (its nodes and this element's history).
+    /// Per point, without collecting the points' values: the energy bookkeeping calls it
+    /// for every element at every step.
     pub fn strain_energy(&self, state: &crate::state::State) -> f64 {
-        self.gauss_values(state)
-            .iter()
-            .zip(&self.points)
-            .map(|((eps, n), p)| 0.5 * p.weight * (0..6).map(|i| n[i] * eps[i]).sum::<f64>())
+        (0..self.points.len())
+            .map(|g| {
+                let (eps, n) = self.gauss_value(state, g);
+                0.5 * self.points[g].weight * (0..6).map(|i| n[i] * eps[i]).sum::<f64>()
+            })
             .sum()
     }
 
     /// Strains `[e*, κ]` and sectional forces/moments `C ε` (section frame) at each Gauss point.
     pub fn gauss_values(&self, state: &crate::state::State) -> Vec<([f64; 6], [f64; 6])> {
-        self.points
-            .iter()
-            .enumerate()
-            .map(|(g, p)| {
-                let (rg, k) = read_history(&state.history[self.history + g * HISTORY_PER_POINT..]);
-                let mut xp = V3::zero();
-                for (a, &node) in self.nodes.iter().enumerate() {
-                    xp += state.nodes[node].x.scale_f(p.dh[a]);
-                }
-                let e = rg.tmul_v(&xp) - V3([1.0, 0.0, 0.0]) - p.e0;
-                let k = k - p.k0;
-                let eps = [e.0[0], e.0[1], e.0[2], k.0[0], k.0[1], k.0[2]];
-                (eps, mat6_mul(&p.stiffness, &eps))
-            })
+        (0..self.points.len())
+            .map(|g| self.gauss_value(state, g))
             .collect()
+    }
+
+    /// [`Self::gauss_values`] of Gauss point `g`.
+    fn gauss_value(&self, state: &crate::state::State, g: usize) -> ([f64; 6], [f64; 6]) {
+        let p = &self.points[g];
+        let (rg, k) = read_history(&state.history[self.history + g * HISTORY_PER_POINT..]);
+        let mut xp = V3::zero();
+        for (a, &node) in self.nodes.iter().enumerate() {
+            xp += state.nodes[node].x.scale_f(p.dh[a]);
+        }
+        let e = rg.tmul_v(&xp) - V3([1.0, 0.0, 0.0]) - p.e0;
+        let k = k - p.k0;
+        let eps = [e.0[0], e.0[1], e.0[2], k.0[0], k.0[1], k.0[2]];
+        (eps, mat6_mul(&p.stiffness, &eps))
     }
 
     /// The element's history at the end of a converged step (the local block `y`).
