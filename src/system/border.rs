@@ -23,7 +23,7 @@
 use super::refactor::{Scalar, StaticPivotLu};
 use super::substitution;
 
-impl<T: Scalar> StaticPivotLu<T> {
+impl<T: Scalar<Vector = T>> StaticPivotLu<T> {
     /// Whether factor rows and columns from [`Self::lead`] on are a border.
     pub fn has_border(&self) -> bool {
         self.lead < self.n

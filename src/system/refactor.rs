@@ -12,6 +12,7 @@ use super::substitution;
 use faer::c64;
 use faer::sparse::linalg::lu::simplicial::SimplicialLu;
 use faer::sparse::SparseColMatRef;
+use faer::traits::ComplexField;
 use std::ops::{Add, AddAssign, Div, Mul, Sub, SubAssign};
 
 /// A pivot is kept while its magnitude is at least this fraction of the largest candidate in
@@ -40,9 +41,19 @@ pub trait Scalar:
     + AddAssign
     + SubAssign
 {
+    /// What the substitutions carry: the scalar itself, or a pair of reals for a 2 × 2
+    /// block ([`super::paired::Block2`]).
+    type Vector: Copy + Default + Add<Output = Self::Vector> + AddAssign + SubAssign;
     /// A magnitude for pivot comparisons (the 1-norm for complex numbers: within √2 of the
     /// modulus, and without a square root).
     fn magnitude(self) -> f64;
+    /// A pivot's size against its column's candidates' [`Self::magnitude`]s: the same for a
+    /// scalar; `1/‖B⁻¹‖` for a block (what bounds the multipliers `x B⁻¹`).
+    fn pivot_size(self) -> f64 {
+        self.magnitude()
+    }
+    /// This times `v`.
+    fn apply(self, v: Self::Vector) -> Self::Vector;
     /// The multiplicative identity.
     fn one() -> Self;
     /// `s` times this number.
@@ -53,7 +64,7 @@ pub trait Scalar:
     /// # Safety
     /// The processor has AVX2.
     #[inline(always)]
-    unsafe fn dot_avx2(a: &[Self], b: &[Self]) -> Self {
+    unsafe fn dot_avx2(a: &[Self], b: &[Self::Vector]) -> Self::Vector {
         substitution::dot(a, b)
     }
 
@@ -62,14 +73,18 @@ pub trait Scalar:
     /// # Safety
     /// The processor has AVX2.
     #[inline(always)]
-    unsafe fn sub_scaled_avx2(y: &mut [Self], u: &[Self], s: Self) {
+    unsafe fn sub_scaled_avx2(y: &mut [Self::Vector], u: &[Self], s: Self::Vector) {
         substitution::sub_scaled(y, u, s)
     }
 }
 
 impl Scalar for f64 {
+    type Vector = f64;
     fn magnitude(self) -> f64 {
         self.abs()
+    }
+    fn apply(self, v: f64) -> f64 {
+        self * v
     }
     fn one() -> Self {
         1.0
@@ -80,8 +95,12 @@ impl Scalar for f64 {
 }
 
 impl Scalar for c64 {
+    type Vector = c64;
     fn magnitude(self) -> f64 {
         self.re.abs() + self.im.abs()
+    }
+    fn apply(self, v: c64) -> c64 {
+        self * v
     }
     fn one() -> Self {
         c64::new(1.0, 0.0)
@@ -108,7 +127,7 @@ impl Scalar for c64 {
 /// L and U with fixed patterns and pivots; every buffer is reused across refactorizations
 /// and rebuilt (capacity kept) only after a pivoting factorization.
 #[derive(Default)]
-pub struct StaticPivotLu<T> {
+pub struct StaticPivotLu<T: Scalar> {
     pub(super) n: usize,
     /// Factor rows and columns from here on are the border's (see [`super::border`]): the
     /// pivots before it are chosen among the other rows only. `n` without a border.
@@ -136,8 +155,10 @@ pub struct StaticPivotLu<T> {
     pub(super) l_rows: RowCopy<T>,
     row_perm: Vec<usize>,
     col_perm: Vec<usize>,
-    /// Dense column / right-hand side in factor space; all zero between refactorizations.
+    /// Dense column in factor space; all zero between refactorizations.
     pub(super) work: Vec<T>,
+    /// The right-hand side in factor space (the solves').
+    rhs: Vec<T::Vector>,
     /// One column of U being sorted (`rebuild`).
     sort_scratch: Vec<(usize, T)>,
     /// Run the baseline kernels even where wider instructions would pay (tests compare).
@@ -150,12 +171,12 @@ impl<T: Scalar> StaticPivotLu<T> {
     /// `(a_col_ptr, a_row_idx)`, factored in column order `col_perm` with row order
     /// `row_perm` (`row_perm_inv` its inverse); factor rows and columns from `lead` on are a
     /// border (`n` for none), whose rows were not pivots of the columns before it.
-    pub fn rebuild(
+    pub fn rebuild<P: ComplexField + Copy>(
         &mut self,
         (a_col_ptr, a_row_idx): (&[usize], &[usize]),
         (row_perm, row_perm_inv): (&[usize], &[usize]),
         col_perm: &[usize],
-        lu: &SimplicialLu<usize, T>,
+        (lu, value): (&SimplicialLu<usize, P>, impl Fn(P) -> T),
         lead: usize,
     ) {
         let n = col_perm.len();
@@ -167,6 +188,8 @@ impl<T: Scalar> StaticPivotLu<T> {
         self.col_perm.extend_from_slice(col_perm);
         self.work.clear();
         self.work.resize(n, T::default());
+        self.rhs.clear();
+        self.rhs.resize(n, T::Vector::default());
         self.a_ptr.clear();
         self.a_row.clear();
         self.a_pos.clear();
@@ -187,12 +210,13 @@ impl<T: Scalar> StaticPivotLu<T> {
             }
         }
         // faer stores L's unit diagonal explicitly; U's diagonal is the pivots.
-        self.l.take_strict(lu.l_factor_unsorted(), |_, _| {});
+        self.l
+            .take_strict(lu.l_factor_unsorted(), &value, |_, _| {});
         self.u_inv.clear();
         self.u_inv.resize(n, T::default());
         let inv = &mut self.u_inv;
         self.u
-            .take_strict(lu.u_factor_unsorted(), |k, v| inv[k] = T::one() / v);
+            .take_strict(lu.u_factor_unsorted(), &value, |k, v| inv[k] = T::one() / v);
         self.u.sort_columns(&mut self.sort_scratch);
         self.u_runs.index(&self.u.ptr, &self.u.row);
         self.l_rows.rebuild(n, &self.l);
@@ -294,7 +318,7 @@ impl<T: Scalar> StaticPivotLu<T> {
                 border = border.max(m);
             }
         }
-        let size = pivot.magnitude();
+        let size = pivot.pivot_size();
         let kept = size >= PIVOT_THRESHOLD * largest && size >= BORDER_GUARD * border;
         if !(size.is_finite() && size > 0.0 && kept) {
             return false;
@@ -309,7 +333,7 @@ impl<T: Scalar> StaticPivotLu<T> {
     }
 
     /// Solves `A x = rhs` in place.
-    pub fn solve(&mut self, rhs: &mut [T]) {
+    pub fn solve(&mut self, rhs: &mut [T::Vector]) {
         self.solve_mapped(rhs, |r, i| r[i], |r, i, x| r[i] = x);
     }
 
@@ -321,16 +345,15 @@ impl<T: Scalar> StaticPivotLu<T> {
     pub fn solve_mapped<D: ?Sized>(
         &mut self,
         data: &mut D,
-        load: impl Fn(&D, usize) -> T,
-        mut store: impl FnMut(&mut D, usize, T),
+        load: impl Fn(&D, usize) -> T::Vector,
+        mut store: impl FnMut(&mut D, usize, T::Vector),
     ) {
-        for (yk, &r) in self.work.iter_mut().zip(&self.row_perm) {
+        for (yk, &r) in self.rhs.iter_mut().zip(&self.row_perm) {
             *yk = load(data, r);
         }
         self.substitute();
-        // The work vector is left zero (`refactor` scatters into it).
-        for (yk, &c) in self.work.iter_mut().zip(&self.col_perm) {
-            store(data, c, std::mem::take(yk));
+        for (&yk, &c) in self.rhs.iter().zip(&self.col_perm) {
+            store(data, c, yk);
         }
     }
 
@@ -359,7 +382,7 @@ impl<T: Scalar> StaticPivotLu<T> {
     /// inlined into other callers its loops compiled ~15 % longer.
     #[inline(always)]
     fn substitute_with<const AVX2: bool>(&mut self) {
-        let y = &mut self.work;
+        let y = &mut self.rhs;
         let l = &self.l_rows;
         for i in 0..self.n {
             let mut s = y[i];
@@ -377,7 +400,7 @@ impl<T: Scalar> StaticPivotLu<T> {
             y[i] = s;
         }
         for k in (0..self.n).rev() {
-            let yk = y[k] * self.u_inv[k];
+            let yk = self.u_inv[k].apply(y[k]);
             y[k] = yk;
             let mut p = self.u.ptr[k];
             for &(first, len) in self.u_runs.of(k) {
@@ -488,9 +511,10 @@ pub(super) struct Triangle<T> {
 impl<T: Scalar> Triangle<T> {
     /// The off-diagonal entries of a factor (storage reused); each diagonal entry goes to
     /// `on_diagonal(column, value)`.
-    fn take_strict(
+    fn take_strict<P: Copy>(
         &mut self,
-        m: SparseColMatRef<'_, usize, T>,
+        m: SparseColMatRef<'_, usize, P>,
+        value: impl Fn(P) -> T,
         mut on_diagonal: impl FnMut(usize, T),
     ) {
         let (ptr, rows, vals) = (m.col_ptr(), m.row_idx(), m.val());
@@ -501,10 +525,10 @@ impl<T: Scalar> Triangle<T> {
         for k in 0..m.ncols() {
             for p in ptr[k]..ptr[k + 1] {
                 if rows[p] == k {
-                    on_diagonal(k, vals[p]);
+                    on_diagonal(k, value(vals[p]));
                 } else {
                     self.row.push(rows[p]);
-                    self.val.push(vals[p]);
+                    self.val.push(value(vals[p]));
                 }
             }
             self.ptr.push(self.row.len());

@@ -21,13 +21,14 @@ use faer::sparse::linalg::lu::simplicial::{
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::traits::ComplexField;
 
+use super::paired::Block2;
 use super::refactor::{Scalar, StaticPivotLu};
 use crate::elements::{value_pos, ValuePos};
 
 /// The scalars a Newton matrix holds: `f64`, or `faer::c64` for ED's decoupled complex
 /// system (`integrator::ed_decoupled`).
-pub trait Entry: ComplexField + Copy + Default + Scalar {}
-impl<T: ComplexField + Copy + Default + Scalar> Entry for T {}
+pub trait Entry: ComplexField + Copy + Default + Scalar<Vector = Self> {}
+impl<T: ComplexField + Copy + Default + Scalar<Vector = T>> Entry for T {}
 
 pub struct NewtonMatrix<T: Entry = f64> {
     n: usize,
@@ -263,6 +264,19 @@ impl<T: Entry> NewtonMatrix<T> {
             .collect()
     }
 
+    /// Makes `lu` the block factors of the patterns and pivots of this matrix's last
+    /// pivoting factorization, values unset ([`super::paired`]: this matrix holds the blocks'
+    /// images in ℂ).
+    pub(super) fn rebuild_pattern_into(&self, lu: &mut StaticPivotLu<Block2>) {
+        lu.rebuild(
+            (&self.col_ptr, &self.row_idx),
+            (&self.row_perm, &self.row_perm_inv),
+            &self.col_perm,
+            (&self.pivoting, |_| Block2::default()),
+            self.n,
+        );
+    }
+
     pub fn nnz(&self) -> usize {
         self.row_idx.len()
     }
@@ -305,7 +319,7 @@ impl<T: Entry> NewtonMatrix<T> {
             (&self.col_ptr, &self.row_idx),
             (&self.row_perm, &self.row_perm_inv),
             &self.col_perm,
-            &self.pivoting,
+            (&self.pivoting, |v| v),
             self.n,
         );
         self.pivots = true;
@@ -329,7 +343,7 @@ impl<T: Entry> NewtonMatrix<T> {
             (&self.col_ptr, &self.row_idx),
             (&self.row_perm, &self.row_perm_inv),
             &self.col_perm,
-            &self.pivoting,
+            (&self.pivoting, |v| v),
             lead,
         );
         self.pivots = self.factors.refactor(&self.values[..self.row_idx.len()]);
@@ -338,7 +352,7 @@ impl<T: Entry> NewtonMatrix<T> {
 
     /// faer's simplicial LU with partial pivoting of the values, the border's rows scaled
     /// down if `scale_border`.
-    fn factor_with_pivots(&mut self, scale_border: bool) -> Result<(), String> {
+    pub(super) fn factor_with_pivots(&mut self, scale_border: bool) -> Result<(), String> {
         let n = self.n;
         let nnz = self.row_idx.len();
         let values = if scale_border {

@@ -14,26 +14,26 @@ use faer::c64;
 /// `Σ a_i b_i` in four interleaved partial sums: independent additions the processor
 /// overlaps (and vector instructions carry), in an order that does not depend on them.
 #[inline(always)]
-pub(super) fn dot<T: Scalar>(a: &[T], b: &[T]) -> T {
-    let mut acc = [T::default(); 4];
+pub(super) fn dot<T: Scalar>(a: &[T], b: &[T::Vector]) -> T::Vector {
+    let mut acc = [T::Vector::default(); 4];
     let (a4, b4) = (a.chunks_exact(4), b.chunks_exact(4));
     let (ar, br) = (a4.remainder(), b4.remainder());
     for (x, y) in a4.zip(b4) {
         for j in 0..4 {
-            acc[j] += x[j] * y[j];
+            acc[j] += x[j].apply(y[j]);
         }
     }
     for (x, y) in ar.iter().zip(br) {
-        acc[0] += *x * *y;
+        acc[0] += x.apply(*y);
     }
     (acc[0] + acc[1]) + (acc[2] + acc[3])
 }
 
 /// `y_i −= u_i s`.
 #[inline(always)]
-pub(super) fn sub_scaled<T: Scalar>(y: &mut [T], u: &[T], s: T) {
+pub(super) fn sub_scaled<T: Scalar>(y: &mut [T::Vector], u: &[T], s: T::Vector) {
     for (yi, &ui) in y.iter_mut().zip(u) {
-        *yi -= ui * s;
+        *yi -= ui.apply(s);
     }
 }
 
