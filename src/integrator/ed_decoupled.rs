@@ -37,7 +37,7 @@
 
 use super::positions::KernelPositions;
 use crate::math::layout::Layout;
-use crate::system::sparse::NewtonMatrix;
+use crate::system::sparse::{compress_columns, NewtonMatrix};
 use faer::c64;
 
 const SQRT2: f64 = std::f64::consts::SQRT_2;
@@ -139,14 +139,7 @@ impl DecoupledMatrix {
                 }
             }
         }
-        let mut c_ptr = vec![0];
-        let mut c_rows = Vec::new();
-        for c in &mut cols {
-            c.sort_unstable();
-            c.dedup();
-            c_rows.extend_from_slice(c);
-            c_ptr.push(c_rows.len());
-        }
+        let (c_ptr, c_rows) = compress_columns(&mut cols);
         let nnz = c_rows.len();
         let real_nnz = row_idx.len();
         // The trailing complex slot, which the factorization never reads: its real part

@@ -19,7 +19,7 @@
 //! the caller factors the real matrix by scalars.
 
 use super::refactor::{Scalar, StaticPivotLu};
-use super::sparse::NewtonMatrix;
+use super::sparse::{compress_columns, NewtonMatrix};
 use crate::math::layout::Layout;
 use faer::c64;
 use std::ops::{Add, AddAssign, Div, Mul, Sub, SubAssign};
@@ -185,14 +185,7 @@ impl PairedLu {
                 cols[layout.pair(j).0].push(layout.pair(i).0);
             }
         }
-        let mut b_ptr = vec![0];
-        let mut b_rows = Vec::new();
-        for c in &mut cols {
-            c.sort_unstable();
-            c.dedup();
-            b_rows.extend_from_slice(c);
-            b_ptr.push(b_rows.len());
-        }
+        let (b_ptr, b_rows) = compress_columns(&mut cols);
         let mut sources = vec![(0, 0, [ABSENT; 4]); b_rows.len()];
         for (pj, col) in cols.iter().enumerate() {
             for (q, &pi) in col.iter().enumerate() {

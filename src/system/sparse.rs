@@ -25,6 +25,21 @@ use super::paired::Block2;
 use super::refactor::{Scalar, StaticPivotLu};
 use crate::elements::{value_pos, ValuePos};
 
+/// A pattern's compressed columns `(col_ptr, row_idx)` from each column's rows (sorted and
+/// deduplicated in place).
+pub fn compress_columns(cols: &mut [Vec<usize>]) -> (Vec<usize>, Vec<usize>) {
+    let mut col_ptr = Vec::with_capacity(cols.len() + 1);
+    col_ptr.push(0);
+    let mut row_idx = Vec::new();
+    for c in cols.iter_mut() {
+        c.sort_unstable();
+        c.dedup();
+        row_idx.extend_from_slice(c);
+        col_ptr.push(row_idx.len());
+    }
+    (col_ptr, row_idx)
+}
+
 /// The scalars a Newton matrix holds: `f64`, or `faer::c64` for ED's decoupled complex
 /// system (`integrator::ed_decoupled`).
 pub trait Entry: ComplexField + Copy + Default + Scalar<Vector = Self> {}
@@ -90,16 +105,8 @@ impl<T: Entry> NewtonMatrix<T> {
         // Every diagonal entry exists so a pivot can always be chosen structurally.
         for (j, c) in cols.iter_mut().enumerate() {
             c.push(j);
-            c.sort_unstable();
-            c.dedup();
         }
-        let mut col_ptr = Vec::with_capacity(n + 1);
-        col_ptr.push(0);
-        let mut row_idx = Vec::new();
-        for c in &cols {
-            row_idx.extend_from_slice(c);
-            col_ptr.push(row_idx.len());
-        }
+        let (col_ptr, row_idx) = compress_columns(&mut cols);
         let dump = row_idx.len();
         let positions = blocks
             .iter()
