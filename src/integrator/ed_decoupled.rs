@@ -440,13 +440,9 @@ mod tests {
 
     fn decoupled_update_is_exact_at_rest(text: &str) {
         use crate::integrator::Integrator;
-        let model = crate::compile::from_yaml_str(&text).unwrap();
-        let sys = crate::compile::compile(&model, Scheme::Ed).unwrap();
-        let mut integ = Integrator::new(&sys, &model.simulation);
         let h = 1e-3;
-        let state = sys.initial.clone();
-        let ctx = Integrator::step_ctx(&sys, &state, h);
-        integ.predict(&sys, &state, h);
+        let (sys, mut integ) = crate::integrator::tests::predicted_start(text, Scheme::Ed, h);
+        let ctx = Integrator::step_ctx(&sys, &sys.initial, h);
         // The rows the decoupled system reads, as modified Newton assembles them (the beams'
         // from their EP stiffness, straight into the complex matrix), then the exact tangent.
         let decoupled = crate::integrator::Factors::Decoupled;

@@ -1494,9 +1494,19 @@ impl Integrator {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::math::layout::Scheme;
+
+    /// The system of model file `text` under `scheme` and an integrator (the model's
+    /// settings) predicted for a step of `h` from its initial state.
+    pub(crate) fn predicted_start(text: &str, scheme: Scheme, h: f64) -> (System, Integrator) {
+        let model = crate::compile::from_yaml_str(text).unwrap();
+        let sys = crate::compile::compile(&model, scheme).unwrap();
+        let mut integ = Integrator::new(&sys, &model.simulation);
+        integ.predict(&sys, &sys.initial, h);
+        (sys, integ)
+    }
 
     /// A residual-only assembly (modified Newton's iterations: each kernel's residual and its
     /// rows' activity from its local block, `Kernel::residual_with_activity`) adds what the
@@ -1519,14 +1529,10 @@ mod tests {
             let Ok(text) = std::fs::read_to_string(&path) else {
                 panic!("example {path} is missing");
             };
-            let model = crate::compile::from_yaml_str(&text).unwrap();
             for scheme in [Scheme::Ep, Scheme::Ed] {
-                let sys = crate::compile::compile(&model, scheme).unwrap();
-                let mut integ = Integrator::new(&sys, &model.simulation);
                 let h = 1e-3;
-                let state = sys.initial.clone();
-                let ctx = Integrator::step_ctx(&sys, &state, h);
-                integ.predict(&sys, &state, h);
+                let (sys, mut integ) = predicted_start(&text, scheme, h);
+                let ctx = Integrator::step_ctx(&sys, &sys.initial, h);
                 integ.assemble(&sys, &ctx, true);
                 let (res, activity) = (integ.res.clone(), integ.activity.clone());
                 integ.assemble(&sys, &ctx, false);
@@ -1561,13 +1567,9 @@ mod tests {
         ] {
             let path = format!("{}/examples/{name}.yaml", env!("CARGO_MANIFEST_DIR"));
             let text = std::fs::read_to_string(&path).unwrap();
-            let model = crate::compile::from_yaml_str(&text).unwrap();
-            let sys = crate::compile::compile(&model, Scheme::Ed).unwrap();
-            let mut integ = Integrator::new(&sys, &model.simulation);
             let h = 1e-3;
-            let state = sys.initial.clone();
-            let ctx = Integrator::step_ctx(&sys, &state, h);
-            integ.predict(&sys, &state, h);
+            let (sys, mut integ) = predicted_start(&text, Scheme::Ed, h);
+            let ctx = Integrator::step_ctx(&sys, &sys.initial, h);
             integ.assemble(&sys, &ctx, true);
             let mut scalar = integ.res.clone();
             integ.factor_tangent(Factors::Exact).unwrap();
