@@ -39,7 +39,7 @@ impl<T: Scalar<Vector = T>> StaticPivotLu<T> {
             self.border_row(r, values);
         }
         for k in self.lead..self.n {
-            if !self.refactor_column(k, values) {
+            if !self.refactor_column::<false>(k, values) {
                 self.work.iter_mut().for_each(|w| *w = T::default());
                 return false;
             }

@@ -59,13 +59,44 @@ pub trait Scalar:
     /// `s` times this number.
     fn scaled(self, s: f64) -> Self;
 
-    /// [`substitution::dot`], where the caller runs compiled for AVX2.
+    /// `Σ a_i b_i` ([`substitution::dot`] unless a type orders its products otherwise).
+    #[inline(always)]
+    fn dot(a: &[Self], b: &[Self::Vector]) -> Self::Vector {
+        substitution::dot(a, b)
+    }
+
+    /// [`Self::dot`], where the caller runs compiled for AVX2: the same operations in the
+    /// same order.
     ///
     /// # Safety
     /// The processor has AVX2.
     #[inline(always)]
     unsafe fn dot_avx2(a: &[Self], b: &[Self::Vector]) -> Self::Vector {
-        substitution::dot(a, b)
+        Self::dot(a, b)
+    }
+
+    /// `x_i −= l_i u` for the rows `rows` of the dense column `x`: a refactorization's
+    /// update of a column by an earlier one.
+    ///
+    /// # Safety
+    /// Every row is below `x.len()`.
+    #[inline(always)]
+    unsafe fn sub_products(x: &mut [Self], rows: &[usize], l: &[Self], u: Self) {
+        for (&i, &li) in rows.iter().zip(l) {
+            // SAFETY: the caller's.
+            unsafe { *x.get_unchecked_mut(i) -= li * u };
+        }
+    }
+
+    /// [`Self::sub_products`], where the caller runs compiled for AVX2: the same operations
+    /// in the same order.
+    ///
+    /// # Safety
+    /// The processor has AVX2, and [`Self::sub_products`]'s condition holds.
+    #[inline(always)]
+    unsafe fn sub_products_avx2(x: &mut [Self], rows: &[usize], l: &[Self], u: Self) {
+        // SAFETY: the caller's.
+        unsafe { Self::sub_products(x, rows, l, u) }
     }
 
     /// [`substitution::sub_scaled`], where the caller runs compiled for AVX2.
@@ -251,7 +282,7 @@ impl<T: Scalar> StaticPivotLu<T> {
             // SAFETY: the processor has AVX2 (`wide`).
             return unsafe { self.refactor_avx2(values) };
         }
-        self.refactor_portable(values)
+        self.refactor_with::<false>(values)
     }
 
     /// Whether the kernels run compiled for AVX2: on processors that have it, unless the
@@ -270,13 +301,15 @@ impl<T: Scalar> StaticPivotLu<T> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn refactor_avx2(&mut self, values: &[T]) -> bool {
-        self.refactor_portable(values)
+        self.refactor_with::<true>(values)
     }
 
+    /// The refactorization, with the kernels for AVX2 if `AVX2` (only from
+    /// [`Self::refactor_avx2`]).
     #[inline(always)]
-    fn refactor_portable(&mut self, values: &[T]) -> bool {
+    fn refactor_with<const AVX2: bool>(&mut self, values: &[T]) -> bool {
         for k in 0..self.n {
-            if !self.refactor_column(k, values) {
+            if !self.refactor_column::<AVX2>(k, values) {
                 self.work.iter_mut().for_each(|w| *w = T::default());
                 return false;
             }
@@ -287,8 +320,9 @@ impl<T: Scalar> StaticPivotLu<T> {
 
     /// Column `k` of L and U: scatter A's column, apply the earlier columns of L that U's
     /// pattern names (in ascending order), gather and scale (left-looking).
+    /// `AVX2` as in [`Self::refactor_with`].
     #[inline(always)]
-    pub(super) fn refactor_column(&mut self, k: usize, values: &[T]) -> bool {
+    pub(super) fn refactor_column<const AVX2: bool>(&mut self, k: usize, values: &[T]) -> bool {
         let x = &mut self.work;
         for p in self.a_ptr[k]..self.a_ptr[k + 1] {
             x[self.a_row[p]] = values[self.a_pos[p]];
@@ -299,9 +333,15 @@ impl<T: Scalar> StaticPivotLu<T> {
             x[j] = T::default();
             *u = ujk;
             let col = self.l.ptr[j]..self.l.ptr[j + 1];
-            for (&i, &l) in self.l.row[col.clone()].iter().zip(&self.l.val[col]) {
-                // SAFETY: factor rows are below n = x.len() (checked in `rebuild`).
-                unsafe { *x.get_unchecked_mut(i) -= l * ujk };
+            let (rows, l) = (&self.l.row[col.clone()], &self.l.val[col]);
+            // SAFETY: factor rows are below n = x.len() (checked in `rebuild`); AVX2 only
+            // from `refactor_avx2`, run where the processor has it.
+            unsafe {
+                if AVX2 {
+                    T::sub_products_avx2(x, rows, l, ujk);
+                } else {
+                    T::sub_products(x, rows, l, ujk);
+                }
             }
         }
         let pivot = x[k];
@@ -393,7 +433,7 @@ impl<T: Scalar> StaticPivotLu<T> {
                 s -= if AVX2 {
                     unsafe { T::dot_avx2(a, b) }
                 } else {
-                    substitution::dot(a, b)
+                    T::dot(a, b)
                 };
                 p += len;
             }
