@@ -37,18 +37,19 @@ use crate::system::System;
 const STALE_ITERATIONS: f64 = 5.0;
 
 /// ED: the most further iterations decoupled factors fresh in this step may need before the
-/// exact matrix's pay (its tangent and LU cost ~20 residual-only iterations with the
-/// decoupled system's back-substitution, against its own ~8).
+/// exact matrix's pay (its tangent and LU cost ~18 residual-only iterations with the
+/// decoupled system's back-substitution, against its own ~7).
 const DECOUPLED_ITERATIONS: f64 = 15.0;
 
 /// ED: fresh factors' cost in residual-only iterations on decoupled factors — the exact
-/// matrix's tangent and LU, the decoupled system's (beam pendulum).
+/// matrix's tangent and block LU, the decoupled system's (beam pendulum, wall time: an
+/// iteration 16 µs, the exact refresh 286 µs, the decoupled 107 µs).
 const EXACT_REFRESH: f64 = 18.0;
 const DECOUPLED_REFRESH: f64 = 7.0;
 
 /// ED: an iteration on the exact matrix's factors against one on the decoupled system's —
-/// the same residual, a dearer solve (12-element beam pendulum: residual 171k and solve 137k
-/// instructions, against the complex solve's 64k).
+/// the same residual, a dearer solve (12-element beam pendulum: residual 10.8 µs and block
+/// solve 6.0 µs, against the complex solve's 5.5 µs).
 const EXACT_ITERATION: f64 = 1.05;
 
 /// What the rate test asks of kept factors that contract too slowly.
