@@ -58,6 +58,8 @@ pub struct ContactBorder<T = f64> {
     touched: Vec<usize>,
     is_touched: Vec<bool>,
     mixed: Vec<usize>,
+    /// `(column, row, entry)` of the turn among the mixed columns (see `mix_columns`).
+    mix_entries: Vec<(usize, usize, f64)>,
     /// ED's decoupled system: the layout that pairs ED's unknowns.
     pairs: Option<Layout>,
 }
@@ -209,6 +211,7 @@ impl<T: BorderEntry + crate::system::sparse::Entry> ContactBorder<T> {
             touched: (0..n).filter(|&i| is_touched[i]).collect(),
             is_touched,
             mixed: Vec::with_capacity(nb),
+            mix_entries: Vec::with_capacity(3 * nb),
             positions: matrix.border_positions(),
             dense: vec![vec![T::default(); n]; 2 * nb],
             turn: vec![vec![0.0; nb]; nb],
@@ -423,10 +426,23 @@ impl<T: BorderEntry> ContactBorder<T> {
         let unit = |q: usize| (0..nb).all(|k| d_bb[k][q] == f64::from(u8::from(k == q)));
         self.mixed.clear();
         self.mixed.extend((0..nb).filter(|&q| !unit(q)));
+        // `D_BB`'s nonzero entries among them, by column: three per column (a triplet's turn)
+        // instead of one per mixed column (the VDTR turns 33 of EP's border columns, 66 of
+        // ED's: 11–22× fewer products).
+        self.mix_entries.clear();
+        for &q in &self.mixed {
+            for &k in &self.mixed {
+                if d_bb[k][q] != 0.0 {
+                    self.mix_entries.push((q, k, d_bb[k][q]));
+                }
+            }
+        }
         for &i in &self.touched {
             for &q in &self.mixed {
-                let terms = self.mixed.iter().map(|&k| set[k][i] * d_bb[k][q]);
-                self.mix[q] = terms.fold(T::default(), |a, b| a + b);
+                self.mix[q] = T::default();
+            }
+            for &(q, k, w) in &self.mix_entries {
+                self.mix[q] = self.mix[q] + set[k][i] * w;
             }
             for &q in &self.mixed {
                 set[q][i] = self.mix[q];

@@ -35,11 +35,30 @@ impl<T: Scalar<Vector = T>> StaticPivotLu<T> {
     /// threshold (the caller factors afresh).
     pub fn refresh_border(&mut self, values: &[T]) -> bool {
         debug_assert!(self.has_border());
+        #[cfg(target_arch = "x86_64")]
+        if self.wide() {
+            // SAFETY: the processor has AVX2 (`wide`).
+            return unsafe { self.refresh_border_avx2(values) };
+        }
+        self.refresh_border_with::<false>(values)
+    }
+
+    /// [`Self::refresh_border`] compiled for AVX2 (see [`Self::refactor`]).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn refresh_border_avx2(&mut self, values: &[T]) -> bool {
+        self.refresh_border_with::<true>(values)
+    }
+
+    /// The refresh, with the refactorization's AVX2 kernels if `AVX2` (only from
+    /// [`Self::refresh_border_avx2`]).
+    #[inline(always)]
+    fn refresh_border_with<const AVX2: bool>(&mut self, values: &[T]) -> bool {
         for r in self.lead..self.n {
             self.border_row(r, values);
         }
         for k in self.lead..self.n {
-            if !self.refactor_column::<false>(k, values) {
+            if !self.refactor_column::<AVX2>(k, values) {
                 self.work.iter_mut().for_each(|w| *w = T::default());
                 return false;
             }
@@ -51,6 +70,7 @@ impl<T: Scalar<Vector = T>> StaticPivotLu<T> {
     /// Row `r` of `L₂₁ = A₂₁ U₁₁⁻¹`: `L[r,j] = (A[r,j] − Σ_{i<j} L[r,i] U[i,j]) / U[j,j]`,
     /// columns ascending, in the work vector (`work[i]` holds `L[r,i]` once computed, zero
     /// off the row's pattern, which holds A's row).
+    #[inline(always)]
     fn border_row(&mut self, r: usize, values: &[T]) {
         let lead = self.lead;
         for &(_, k, p) in self.border_a.iter().filter(|e| e.0 == r) {

@@ -288,7 +288,7 @@ impl<T: Scalar> StaticPivotLu<T> {
     /// Whether the kernels run compiled for AVX2: on processors that have it, unless the
     /// baseline ones are asked for (detection is cached by the standard library).
     #[cfg(target_arch = "x86_64")]
-    fn wide(&self) -> bool {
+    pub(super) fn wide(&self) -> bool {
         !self.portable_only && std::is_x86_feature_detected!("avx2")
     }
 
