@@ -205,9 +205,14 @@ fn chained<
     let mut gab = [[[[B3::zero(); NQ]; NU]; MAX_NODES]; MAX_NODES];
     // Every point writes all of it.
     let mut jac = [[B3::zero(); NP]; NO];
+    // The row quantities serve the residual and the end triad's moment term (ED, statics)
+    // only: ED's decoupled surrogate (EP's equations, no residual) skips them.
+    let rows_needed = res.is_some() || ctx.ed() || ctx.is_static();
     for g in 0..el.points.len() {
         let o = point_jacobian::<N, NO, NP>(el, ctx, g, &q, &mut jac);
-        el.add_row_quantities(g, &o, &mut u);
+        if rows_needed {
+            el.add_row_quantities(g, &o, &mut u);
+        }
         let pt = &el.points[g];
         for a in 0..nn {
             let w = row_weights::<NU, NO, NP>(pt, a, &jac, &active);

@@ -119,12 +119,29 @@ impl Kernel for NodeInertia {
         jac: Option<(&mut [f64], &[ValuePos])>,
     ) {
         match jac {
-            Some((vals, pos)) if !ctx.is_static() => wide(
+            Some(jac) if !ctx.is_static() => wide(
                 #[inline(always)]
-                || self.step_tangent(ctx, y, res, vals, pos),
+                || self.step_tangent(ctx, y, res, jac, false),
             ),
             jac => super::eval_kernel(self, ctx, y, res, jac),
         }
+    }
+
+    /// ED's decoupled system reads a node's j-rows only: the f-rows' blocks (half the
+    /// rotational work) are skipped.
+    fn evaluate_decoupled(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        res: &mut [f64],
+        vals: &mut [f64],
+        pos: &[ValuePos],
+    ) {
+        debug_assert!(ctx.ed());
+        wide(
+            #[inline(always)]
+            || self.step_tangent(ctx, y, res, (vals, pos), true),
+        )
     }
 
     #[inline(always)]
@@ -186,14 +203,16 @@ impl NodeInertia {
     /// See [`Kernel::evaluate`]. With `W_f = 2r/h − W_s` (`W_s` = `W_i` under EP, `W_j =
     /// y_9/h` under ED) and ED's `r_j = h (W_j − W_f)/6 = (y_9 − r)/3`, the rotational rows'
     /// derivatives follow from those of [`rotational_row_jacobian`] by the chain rule.
+    /// With `j_rows_only` (ED's decoupled system, which reads no f-row of a motion pair),
+    /// the f-rows' blocks are neither formed nor written.
     #[inline(always)]
     fn step_tangent(
         &self,
         ctx: &StepCtx,
         y: &[f64],
         res: &mut [f64],
-        vals: &mut [f64],
-        pos: &[ValuePos],
+        (vals, pos): (&mut [f64], &[ValuePos]),
+        j_rows_only: bool,
     ) {
         let n = self.unknowns.len();
         let yl = y_local(self, y);
@@ -204,23 +223,26 @@ impl NodeInertia {
         }
         let h = ctx.h;
         let k = M3::<f64>::identity().scale_f(self.mass / (h * h));
-        self.put(vals, pos, 0, 0, &k.scale_f(2.0));
         let ni = &ctx.state.nodes[self.node];
         let r = v3(&yl, 3);
         if !ctx.ed() {
+            self.put(vals, pos, 0, 0, &k.scale_f(2.0));
             let wf = r.scale_f(2.0 / h) - ni.w;
             let (_, d_rho, d_wb) = rotational_row_jacobian(&self.inertia, &r, &ni.w, &wf, h);
             self.put(vals, pos, 3, 3, &(d_rho + d_wb.scale_f(2.0 / h)));
             return;
         }
-        self.put(vals, pos, 0, 6, &k.scale_f(-1.0));
         self.put(vals, pos, 6, 6, &k);
         let y9 = v3(&yl, 9);
         let wj = y9.scale_f(1.0 / h);
-        let wf = r.scale_f(2.0 / h) - wj;
-        let (_, d_rho, d_wb) = rotational_row_jacobian(&self.inertia, &r, &ni.w, &wf, h);
-        self.put(vals, pos, 3, 3, &(d_rho + d_wb.scale_f(2.0 / h)));
-        self.put(vals, pos, 3, 9, &d_wb.scale_f(-1.0 / h));
+        if !j_rows_only {
+            self.put(vals, pos, 0, 0, &k.scale_f(2.0));
+            self.put(vals, pos, 0, 6, &k.scale_f(-1.0));
+            let wf = r.scale_f(2.0 / h) - wj;
+            let (_, d_rho, d_wb) = rotational_row_jacobian(&self.inertia, &r, &ni.w, &wf, h);
+            self.put(vals, pos, 3, 3, &(d_rho + d_wb.scale_f(2.0 / h)));
+            self.put(vals, pos, 3, 9, &d_wb.scale_f(-1.0 / h));
+        }
         let rj = (y9 - r).scale_f(1.0 / 3.0);
         let (_, d_rho, d_wb) = rotational_row_jacobian(&self.inertia, &rj, &ni.w, &wj, h);
         self.put(vals, pos, 9, 3, &d_rho.scale_f(-1.0 / 3.0));
@@ -292,6 +314,56 @@ mod tests {
             // Central differences with step 1e-6: truncation ~1e-12·|J'''|, round-off ~1e-10·|R|/|J|.
             assert!(e < 1e-7, "{scheme:?}: {e}");
         }
+    }
+
+    /// ED's decoupled evaluation: the same residual, the exact tangent's j-rows (the rows the
+    /// decoupled complex system reads) to round-off, and nothing in the f-rows, which it
+    /// skips. Fails if a j-row block is dropped or an f-row one still written.
+    #[test]
+    fn decoupled_evaluation_writes_the_exact_j_rows_only() {
+        let jm = M3([[2.0, 0.1, -0.2], [0.1, 3.0, 0.3], [-0.2, 0.3, 4.0]]);
+        let node = NodeState {
+            x: V3([0.1, 0.2, 0.3]),
+            r: crate::math::rotation::exp_map(&V3([0.4, -0.2, 0.9])),
+            v: V3([1.0, -2.0, 0.5]),
+            w: V3([0.3, 5.0, -1.0]),
+        };
+        let state = State::of_nodes(vec![node]);
+        let layout = Layout::new(Scheme::Ed, 1, 0, 0);
+        let k = NodeInertia::new(0, 1.7, jm, None, &layout);
+        let ctx = StepCtx {
+            layout,
+            h: 0.01,
+            t_i: 0.0,
+            t_f: 0.01,
+            s: 1.0,
+            state: &state,
+            gravity: V3([0.0, 0.0, -9.81]),
+            statics: None,
+        };
+        let y: Vec<f64> = (0..12).map(|i| 0.01 * ((i as f64) * 0.7).sin()).collect();
+        let pos = crate::elements::own_block_positions(12);
+        let (mut exact, mut decoupled) = (vec![0.0; 144], vec![0.0; 144]);
+        let (mut r_exact, mut r_decoupled) = (vec![0.0; 12], vec![0.0; 12]);
+        k.evaluate(&ctx, &y, &mut r_exact, Some((&mut exact, &pos)));
+        k.evaluate_decoupled(&ctx, &y, &mut r_decoupled, &mut decoupled, &pos);
+        assert_eq!(r_exact, r_decoupled);
+        let scale = exact.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for i in 0..12 {
+            for j in 0..12 {
+                let (e, d) = (exact[i * 12 + j], decoupled[i * 12 + j]);
+                // The j-rows (6..12) come from the same closed forms: equal to round-off.
+                let want = if i >= 6 { e } else { 0.0 };
+                assert!(
+                    (d - want).abs() <= 1e-14 * scale,
+                    "({i}, {j}): {d} vs {want}"
+                );
+            }
+        }
+        assert!(
+            exact[..72].iter().any(|v| *v != 0.0),
+            "the f-rows are not empty"
+        );
     }
 
     /// The steady-spin terms of a static solve are the limit, as h → 0, of the time step's
