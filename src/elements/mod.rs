@@ -124,6 +124,21 @@ pub trait Kernel {
     {
         self.evaluate(ctx, y, res, Some((vals, pos)))
     }
+    /// [`Kernel::evaluate_decoupled`]'s tangent entries where the residual is not wanted (a
+    /// contact border's refresh): by default with the residual added into `scratch`; a
+    /// kernel that computes its residual apart from those entries skips it.
+    fn decoupled_tangent(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        scratch: &mut [f64],
+        vals: &mut [f64],
+        pos: &[ValuePos],
+    ) where
+        Self: Sized,
+    {
+        self.evaluate_decoupled(ctx, y, scratch, vals, pos)
+    }
     /// The structurally nonzero entries of the tangent block (row-major), probed at a
     /// generic state and unknowns `y`: of the exact tangent and, under ED, of the decoupled
     /// evaluation's. A kernel whose block depends on where the step goes (a sliding joint's

@@ -333,7 +333,7 @@ impl<T: BorderEntry> ContactBorder<T> {
                 for &i in &self.kernels[$k] {
                     let (k, p) = (&$list[i], &$pos[i][..]);
                     if decoupled {
-                        Kernel::evaluate_decoupled(k, ctx, y, res, &mut *values, p);
+                        Kernel::decoupled_tangent(k, ctx, y, res, &mut *values, p);
                     } else {
                         Kernel::evaluate(k, ctx, y, res, Some((&mut *values, p)));
                     }

@@ -69,6 +69,18 @@ pub fn evaluate_decoupled<K: ClosedTangent<NC>, const NC: usize>(
     pos: &[ValuePos],
 ) {
     eval_kernel(k, ctx, y, res, None);
+    decoupled_tangent(k, ctx, y, vals, pos)
+}
+
+/// [`evaluate_decoupled`]'s tangent entries alone (`Kernel::decoupled_tangent`): the ED
+/// residual it would add is a pass of its own.
+pub fn decoupled_tangent<K: ClosedTangent<NC>, const NC: usize>(
+    k: &K,
+    ctx: &StepCtx,
+    y: &[f64],
+    vals: &mut [f64],
+    pos: &[ValuePos],
+) {
     k.evaluate_closed(&ep_equations(ctx), y, None, (vals, pos), Tangent::Decoupled)
 }
 

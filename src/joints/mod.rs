@@ -336,6 +336,16 @@ impl Kernel for Joint {
     ) {
         each_joint!(self, j => j.evaluate_decoupled(ctx, y, res, vals, pos))
     }
+    fn decoupled_tangent(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        scratch: &mut [f64],
+        vals: &mut [f64],
+        pos: &[ValuePos],
+    ) {
+        each_joint!(self, j => j.decoupled_tangent(ctx, y, scratch, vals, pos))
+    }
 }
 
 /// One side of a joint: a node with unknowns, or the ground (a fixed pose).
@@ -705,6 +715,17 @@ impl Kernel for JointKernel {
         pos: &[ValuePos],
     ) {
         closed_tangent::evaluate_decoupled(self, ctx, y, res, vals, pos)
+    }
+
+    fn decoupled_tangent(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        _scratch: &mut [f64],
+        vals: &mut [f64],
+        pos: &[ValuePos],
+    ) {
+        closed_tangent::decoupled_tangent(self, ctx, y, vals, pos)
     }
 }
 
@@ -1212,6 +1233,11 @@ mod kernel_tests {
                         );
                     } else {
                         k.evaluate_decoupled(&ctx, &y, &mut rc, &mut jc, &pos);
+                        // The border refresh's tangent-only evaluation: the same entries.
+                        let mut alone = vec![0.0; n * n];
+                        let mut scratch = vec![0.0; y.len()];
+                        k.decoupled_tangent(&ctx, &y, &mut scratch, &mut alone, &pos);
+                        assert_eq!(alone, jc, "{law:?} ground={ground}: tangent alone");
                         equations::evaluate_constraint_decoupled(
                             &k, &ctx, &y, &mut rd, &mut jd, &pos,
                         );

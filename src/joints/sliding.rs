@@ -254,6 +254,17 @@ impl Kernel for NodeShare<'_> {
     ) {
         closed_tangent::evaluate_decoupled(self, ctx, y, res, vals, pos)
     }
+
+    fn decoupled_tangent(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        _scratch: &mut [f64],
+        vals: &mut [f64],
+        pos: &[ValuePos],
+    ) {
+        closed_tangent::decoupled_tangent(self, ctx, y, vals, pos)
+    }
 }
 
 /// EP's equations of a share with their tangent in closed form: the residual, the
@@ -1172,6 +1183,21 @@ impl Kernel for SlidingJoint {
         });
     }
 
+    /// The shares' decoupled entries without their residuals (a border refresh): a third of
+    /// the work, the shares' ED residual passes each recomputing the window's weights.
+    fn decoupled_tangent(
+        &self,
+        ctx: &StepCtx,
+        y: &[f64],
+        scratch: &mut [f64],
+        vals: &mut [f64],
+        pos: &[ValuePos],
+    ) {
+        self.for_each_share(ctx, y, pos, |share, spos| {
+            share.decoupled_tangent(ctx, y, scratch, vals, spos)
+        });
+    }
+
     /// The pattern must hold wherever ζ is in the window during the step: the union of the
     /// structures with the step ending in each of its elements, of the exact tangent and of
     /// ED's decoupled one (the latter once missing: 20 entries written outside the pattern
@@ -1428,7 +1454,9 @@ mod tests {
 
     /// The shares' closed-form tangent ([`NodeShare::evaluate_closed`]) is the dual pass's,
     /// EP's and ED's decoupled surrogate alike, for every kind and element order, to a node
-    /// and to the ground, inside an element and across a boundary: round-off only.
+    /// and to the ground, inside an element and across a boundary: round-off only. Under ED
+    /// the border refresh's tangent-only evaluation (`decoupled_tangent`) writes the very
+    /// entries `evaluate_decoupled` does, bit for bit.
     #[test]
     fn closed_form_tangent_is_the_dual_pass_tangent() {
         for scheme in [Scheme::Ep, Scheme::Ed] {
@@ -1456,6 +1484,10 @@ mod tests {
                                 });
                             } else {
                                 j.evaluate_decoupled(&ctx, &y, &mut rc, &mut jc, &pos);
+                                let mut alone = vec![0.0; n * n];
+                                let mut scratch = vec![0.0; y.len()];
+                                j.decoupled_tangent(&ctx, &y, &mut scratch, &mut alone, &pos);
+                                assert_eq!(alone, jc, "{kind:?} p={p}: tangent alone");
                                 j.for_each_share(&ctx, &y, &pos, |share, spos| {
                                     evaluate_constraint_decoupled(
                                         share, &ctx, &y, &mut rd, &mut jd, spos,
