@@ -31,11 +31,16 @@ def test_a_patterned_rotor_is_the_rotor_typed_by_hand():
     a = fd.simulate(patterned_rotor(), output_dt=0.02)
     b = fd.simulate(by_hand, output_dt=0.02)
     # The hand-typed blades' cos/sin numbers differ from the turned ones in the last digit,
-    # and the step sequences may then differ within the step error: measured 4e-7 of the peak.
+    # and the step sequences may then differ within the step error (ED holds a step while it
+    # would shrink by less than 15 %: one run may hold where the other shrinks a little;
+    # step ends up to 2.4e-6 s apart in 0.35 ms steps). Measured of the peak: tip 1.3e-10,
+    # M2 1.1e-6, and the stiff blade's axial force F1 3.4e-5 — bounded by twice the default
+    # tolerance 1e-4, the error either step sequence is allowed.
+    bound = {"section{}.M2": 1e-5, "section{}.F1": 2e-4, "tip{}.uz": 1e-5}
     for k in range(3):
         for c in ("section{}.M2", "section{}.F1", "tip{}.uz"):
             ours, theirs = a[c.format(k + 1)].values, b[c.format(k)].values
-            assert np.abs(ours - theirs).max() < 1e-5 * np.abs(theirs).max(), c.format(k)
+            assert np.abs(ours - theirs).max() < bound[c] * np.abs(theirs).max(), c.format(k)
 
 
 def test_blades_patterned_about_a_horizontal_shaft_carry_identical_section_loads():

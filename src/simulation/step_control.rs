@@ -236,7 +236,9 @@ impl Simulation {
                         self.accept(state, report, h);
                         self.stats.steps_set_by[by as usize] += 1;
                         let factor = self.controller.accepted(e, &self.settings);
-                        let keep = self.settings.modified_newton && Controller::holds(e, factor);
+                        let scheme = self.settings.scheme;
+                        let keep =
+                            self.settings.modified_newton && Controller::holds(e, factor, scheme);
                         self.h_next = if keep {
                             h
                         } else {
@@ -352,10 +354,18 @@ const ORDER: f64 = 2.0;
 /// The indicator a step aims at.
 const TARGET: f64 = 0.6;
 /// Modified Newton holds h while it could grow by less than this factor (e from 0.36 up to
-/// the target). It never holds a step the controller would shrink: in a steady shrink,
-/// holding every other step makes the step sizes alternate, which drives EP's undamped
-/// period-2 multiplier ripple (measured: a spun-up arm's motor torque 10× further off).
+/// the target).
 const HOLD_ABOVE: f64 = 1.3;
+/// Under ED it also holds h while it would shrink by less than this one (e from the target
+/// up to 0.83): the controller aims at the target, so about half of the steps land just
+/// above it, and each one's few-percent shrink cost a fresh tangent and LU (adaptive free
+/// collar, 2 s: 1392 factorizations in 2568 steps, 737 in 2549 with the band; −11 % time;
+/// beam pendulum −6 %). EP never holds a shrink: held runs then a shrink make the step
+/// sizes change every two or three steps in a steady shrink, which drives EP's undamped
+/// period-2 multiplier ripple (a spun-up arm's motor torque 3.8e-3 of its peak off, 1.3e-3
+/// without; holding every other step, earlier, made it 10× worse); ED's dissipation
+/// annihilates that mode (the same arm: 2.2e-4).
+const HOLD_BELOW_ED: f64 = 0.85;
 
 impl Controller {
     /// The factor on h for the step after an accepted one with indicator `e`.
@@ -386,9 +396,14 @@ impl Controller {
     /// elementary factor `(TARGET/e)^(1/q)`, not the PI one: held steps repeat the same
     /// indicator, and the PI factor's proportional part would then settle near 1 and
     /// never let h grow (measured: ED beam pendulum 726 steps instead of 316).
-    pub fn holds(e: f64, factor: f64) -> bool {
+    /// `scheme`: ED also holds slight shrinks ([`HOLD_BELOW_ED`]).
+    pub fn holds(e: f64, factor: f64, scheme: Scheme) -> bool {
         let elementary = (TARGET / e.max(1e-10)).powf(1.0 / ORDER);
-        factor < HOLD_ABOVE && (1.0..HOLD_ABOVE).contains(&elementary)
+        let lowest = match scheme {
+            Scheme::Ed => HOLD_BELOW_ED,
+            Scheme::Ep => 1.0,
+        };
+        factor < HOLD_ABOVE && (lowest..HOLD_ABOVE).contains(&elementary)
     }
 
     /// The factor on h for the retry of a step rejected with indicator `e` (< 0.9).
@@ -438,7 +453,28 @@ pub(super) fn rotation_between(
 
 #[cfg(test)]
 mod tests {
-    use super::cayley_excess;
+    use super::{cayley_excess, Controller};
+
+    /// The hold band under modified Newton: both schemes hold a step that could grow by
+    /// less than 1.3, ED also one that would shrink by less than 15 %; neither holds a
+    /// larger change, nor a step the PI factor would grow by 1.3 or more.
+    #[test]
+    fn steps_are_held_within_the_band_of_their_scheme() {
+        use crate::model::Scheme::{Ed, Ep};
+        // Indicators and their elementary factors (0.6/e)^½.
+        let grow = 0.5; // 1.095
+        let slight_shrink = 0.75; // 0.894
+        let shrink = 0.9; // 0.816
+        let big_grow = 0.3; // 1.414
+        for scheme in [Ep, Ed] {
+            assert!(Controller::holds(grow, 1.05, scheme));
+            assert!(!Controller::holds(grow, 1.35, scheme));
+            assert!(!Controller::holds(shrink, 0.85, scheme));
+            assert!(!Controller::holds(big_grow, 1.2, scheme));
+        }
+        assert!(Controller::holds(slight_shrink, 0.92, Ed));
+        assert!(!Controller::holds(slight_shrink, 0.92, Ep));
+    }
 
     #[test]
     fn cayley_excess_is_tan_x_over_x_less_one_across_its_series_switch() {
