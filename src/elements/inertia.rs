@@ -273,8 +273,8 @@ mod tests {
     use crate::math::layout::Scheme;
     use crate::state::{NodeState, State};
 
-    #[test]
-    fn tangent_matches_finite_differences_ep_and_ed() {
+    /// A general inertia tensor and a node turned and moving in every direction.
+    fn moving_node() -> (M3<f64>, State) {
         let jm = M3([[2.0, 0.1, -0.2], [0.1, 3.0, 0.3], [-0.2, 0.3, 4.0]]);
         let node = NodeState {
             x: V3([0.1, 0.2, 0.3]),
@@ -282,7 +282,31 @@ mod tests {
             v: V3([1.0, -2.0, 0.5]),
             w: V3([0.3, 5.0, -1.0]),
         };
-        let state = State::of_nodes(vec![node]);
+        (jm, State::of_nodes(vec![node]))
+    }
+
+    /// A step of 10 ms from `state` (a static solve at load factor `statics` if given), under
+    /// gravity along −z, and unknowns away from zero in every component.
+    fn step<'a>(layout: Layout, state: &'a State, statics: Option<f64>) -> (StepCtx<'a>, Vec<f64>) {
+        let ctx = StepCtx {
+            layout,
+            h: 0.01,
+            t_i: 0.0,
+            t_f: 0.01,
+            s: 1.0,
+            state,
+            gravity: V3([0.0, 0.0, -9.81]),
+            statics,
+        };
+        let y = (0..layout.n_unknowns())
+            .map(|i| 0.01 * ((i as f64) * 0.7).sin())
+            .collect();
+        (ctx, y)
+    }
+
+    #[test]
+    fn tangent_matches_finite_differences_ep_and_ed() {
+        let (jm, state) = moving_node();
         // Time steps of both schemes, and static solves (EP layout).
         // Static solves also with a steady spin (centrifugal and gyroscopic terms).
         let spin = SteadySpin {
@@ -297,19 +321,7 @@ mod tests {
         ] {
             let layout = Layout::new(scheme, 1, 0, 0);
             let k = NodeInertia::new(0, 1.7, jm, spin, &layout);
-            let ctx = StepCtx {
-                layout,
-                h: 0.01,
-                t_i: 0.0,
-                t_f: 0.01,
-                s: 1.0,
-                state: &state,
-                gravity: V3([0.0, 0.0, -9.81]),
-                statics,
-            };
-            let y: Vec<f64> = (0..layout.n_unknowns())
-                .map(|i| 0.01 * ((i as f64) * 0.7).sin())
-                .collect();
+            let (ctx, y) = step(layout, &state, statics);
             let e = tangent_error(&k, &ctx, &y);
             // Central differences with step 1e-6: truncation ~1e-12·|J'''|, round-off ~1e-10·|R|/|J|.
             assert!(e < 1e-7, "{scheme:?}: {e}");
@@ -321,27 +333,10 @@ mod tests {
     /// skips. Fails if a j-row block is dropped or an f-row one still written.
     #[test]
     fn decoupled_evaluation_writes_the_exact_j_rows_only() {
-        let jm = M3([[2.0, 0.1, -0.2], [0.1, 3.0, 0.3], [-0.2, 0.3, 4.0]]);
-        let node = NodeState {
-            x: V3([0.1, 0.2, 0.3]),
-            r: crate::math::rotation::exp_map(&V3([0.4, -0.2, 0.9])),
-            v: V3([1.0, -2.0, 0.5]),
-            w: V3([0.3, 5.0, -1.0]),
-        };
-        let state = State::of_nodes(vec![node]);
+        let (jm, state) = moving_node();
         let layout = Layout::new(Scheme::Ed, 1, 0, 0);
         let k = NodeInertia::new(0, 1.7, jm, None, &layout);
-        let ctx = StepCtx {
-            layout,
-            h: 0.01,
-            t_i: 0.0,
-            t_f: 0.01,
-            s: 1.0,
-            state: &state,
-            gravity: V3([0.0, 0.0, -9.81]),
-            statics: None,
-        };
-        let y: Vec<f64> = (0..12).map(|i| 0.01 * ((i as f64) * 0.7).sin()).collect();
+        let (ctx, y) = step(layout, &state, None);
         let pos = crate::elements::own_block_positions(12);
         let (mut exact, mut decoupled) = (vec![0.0; 144], vec![0.0; 144]);
         let (mut r_exact, mut r_decoupled) = (vec![0.0; 12], vec![0.0; 12]);
