@@ -347,16 +347,35 @@ mod tests {
     use crate::model::TimeFunctionSpec;
     use crate::state::State;
 
-    #[test]
-    fn spring_and_drive_tangents_match_finite_differences() {
-        let state = State {
+    /// One coordinate at `q` moving at 1 per second, at t = 0.3 s.
+    fn one_coordinate(q: f64) -> State {
+        State {
             t: 0.3,
             nodes: vec![],
-            coords: vec![0.4],
+            coords: vec![q],
             coord_rates: vec![1.0],
             lambda: vec![0.0],
             history: vec![],
-        };
+        }
+    }
+
+    /// A step of 20 ms from t = 0.3 s (a static solve at load factor `statics` if given).
+    fn step<'a>(layout: Layout, state: &'a State, statics: Option<f64>) -> StepCtx<'a> {
+        StepCtx {
+            layout,
+            h: 0.02,
+            t_i: 0.3,
+            t_f: 0.32,
+            s: 50.0,
+            state,
+            gravity: V3([0.0; 3]),
+            statics,
+        }
+    }
+
+    #[test]
+    fn spring_and_drive_tangents_match_finite_differences() {
+        let state = one_coordinate(0.4);
         // Time steps of both schemes, and static solves (EP layout).
         for (scheme, statics) in [
             (Scheme::Ep, None),
@@ -364,16 +383,7 @@ mod tests {
             (Scheme::Ep, Some(0.6)),
         ] {
             let layout = Layout::new(scheme, 0, 1, 1);
-            let ctx = StepCtx {
-                layout,
-                h: 0.02,
-                t_i: 0.3,
-                t_f: 0.32,
-                s: 50.0,
-                state: &state,
-                gravity: V3([0.0; 3]),
-                statics,
-            };
+            let ctx = step(layout, &state, statics);
             let y: Vec<f64> = (0..layout.n_unknowns())
                 .map(|i| 0.1 + 0.05 * i as f64)
                 .collect();
@@ -399,26 +409,10 @@ mod tests {
     /// again or enters with another weight.
     #[test]
     fn decoupled_spring_damper_adds_the_dampers_projection() {
-        let state = State {
-            t: 0.3,
-            nodes: vec![],
-            coords: vec![0.4],
-            coord_rates: vec![1.0],
-            lambda: vec![],
-            history: vec![],
-        };
+        let state = one_coordinate(0.4);
         let layout = Layout::new(Scheme::Ed, 0, 1, 0);
-        let (h, c) = (0.02, 4.0);
-        let ctx = StepCtx {
-            layout,
-            h,
-            t_i: 0.3,
-            t_f: 0.32,
-            s: 50.0,
-            state: &state,
-            gravity: V3([0.0; 3]),
-            statics: None,
-        };
+        let ctx = step(layout, &state, None);
+        let (h, c) = (ctx.h, 4.0);
         let y = vec![0.013, 0.021];
         let law = SpringLaw::Linear {
             stiffness: 300.0,
@@ -472,30 +466,14 @@ mod tests {
 
     #[test]
     fn table_spring_tangents_match_finite_differences_across_breakpoints() {
-        let state = State {
-            t: 0.3,
-            nodes: vec![],
-            coords: vec![0.15],
-            coord_rates: vec![1.0],
-            lambda: vec![0.0],
-            history: vec![],
-        };
+        let state = one_coordinate(0.15);
         for (scheme, statics) in [
             (Scheme::Ep, None),
             (Scheme::Ed, None),
             (Scheme::Ep, Some(0.6)),
         ] {
             let layout = Layout::new(scheme, 0, 1, 0);
-            let ctx = StepCtx {
-                layout,
-                h: 0.02,
-                t_i: 0.3,
-                t_f: 0.32,
-                s: 50.0,
-                state: &state,
-                gravity: V3([0.0; 3]),
-                statics,
-            };
+            let ctx = step(layout, &state, statics);
             // Δq = 0.3 crosses the breakpoint at 0.2; the j-strain sits elsewhere.
             let y = vec![0.3, 0.011];
             let sp = CoordinateSpring::new(0, table(), 2.0, &layout);
