@@ -251,6 +251,24 @@ def test_prescribed_eta_outside_the_beam_is_an_input_error_naming_joint_and_time
         fd.simulate(m)
 
 
+def test_a_given_eta_where_the_drive_starts_is_the_same_start():
+    """A user who writes both the initial η and a drive starting there said one thing twice:
+    the run is the one without `eta`. Disagreeing, they said two: an error names both."""
+    plain = driven_collar(drive="0.25 + 0.5*t")
+    plain.simulation(t_end=0.05)
+    both = driven_collar(drive="0.25 + 0.5*t")
+    both.simulation(t_end=0.05)
+    both.data["joints"][1]["eta"] = 0.25
+    a, b = fd.simulate(plain), fd.simulate(both)
+    np.testing.assert_array_equal(a["push.force"].values, b["push.force"].values)
+    both.data["joints"][1]["eta"] = 0.3
+    with pytest.raises(
+        fd.ModelError,
+        match=r"joints\[1\]\.eta: sliding joint `slider`: the drive sets the initial η, its value at t = 0, which is 0\.25 \(got eta = 0\.3\)",
+    ):
+        fd.simulate(both)
+
+
 def test_unknown_beam_is_reported():
     m = driven_collar()
     m.data["joints"][1]["beam"] = "trak"

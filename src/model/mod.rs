@@ -382,7 +382,8 @@ pub struct SlidingJoint {
     /// The node kept on the beam, or `ground` (a fixed guide the beam slides through).
     pub follower: String,
     /// Initial contact point η ∈ [0, 1]. Default: the drive's value at t = 0, else the beam
-    /// point closest to the follower's node.
+    /// point closest to the follower's node. With a drive it may be given only as the drive's
+    /// value at t = 0 (within 1e-9).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub eta: Option<f64>,
     /// Prescribed η(t) ∈ [0, 1]. Its multiplier is the driving force along the beam.

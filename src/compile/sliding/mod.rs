@@ -25,6 +25,10 @@ pub fn check(model: &Model, sl: &SlidingJoint, names: &NodeNames, c: &mut Checke
     names.check(c, format!("{p}.follower"), &sl.follower, true);
 }
 
+/// How far a given η may be from its drive's value at t = 0 and still be the same start
+/// (both typed to ~9 digits; 1e-9 of a 100 m beam is 0.1 µm).
+const DRIVEN_ETA_AGREES: f64 = 1e-9;
+
 /// η given, driven or held by end stops, consistently.
 fn check_eta(model: &Model, sl: &SlidingJoint, c: &mut Checker, p: &str, who: &str) {
     if let Some(eta) = sl.eta {
@@ -34,11 +38,15 @@ fn check_eta(model: &Model, sl: &SlidingJoint, c: &mut Checker, p: &str, who: &s
                 format!("{who}: η must lie on the beam, in [0, 1] (got {eta})"),
             );
         }
-        if sl.drive.is_some() {
-            c.err(
-                format!("{p}.eta"),
-                format!("{who}: the drive sets the initial η (its value at t = 0); remove `eta`"),
-            );
+        // The drive sets the initial η; a given η must say the same (or be left out).
+        if let Some(Ok(f)) = sl.drive.as_ref().map(TimeFunction::new) {
+            let start = f.value(0.0);
+            if (start - eta).abs() > DRIVEN_ETA_AGREES {
+                c.err(
+                    format!("{p}.eta"),
+                    format!("{who}: the drive sets the initial η, its value at t = 0, which is {start} (got eta = {eta}); remove `eta` or make the drive start there"),
+                );
+            }
         }
     }
     if let Some(stops) = &sl.end_stops {
