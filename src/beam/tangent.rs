@@ -208,6 +208,7 @@ fn chained<
     // The row quantities serve the residual and the end triad's moment term (ED, statics)
     // only: ED's decoupled surrogate (EP's equations, no residual) skips them.
     let rows_needed = res.is_some() || ctx.ed() || ctx.is_static();
+    let mut w = [[B3::zero(); NP]; NU];
     for g in 0..el.points.len() {
         let o = point_jacobian::<N, NO, NP>(el, ctx, g, &q, &mut jac);
         if rows_needed {
@@ -215,7 +216,7 @@ fn chained<
         }
         let pt = &el.points[g];
         for a in 0..nn {
-            let w = row_weights::<NU, NO, NP>(pt, a, &jac, &active);
+            row_weights::<NU, NO, NP>(pt, a, &jac, &active, &mut w);
             for b in 0..nn {
                 for (pg, &(qg, derivative)) in P_FROM.iter().enumerate().take(NP) {
                     let c = if derivative { pt.dh[b] } else { pt.h[b] };
@@ -238,28 +239,39 @@ fn chained<
     }
 }
 
-/// `W[k][pg] = ∂u^a_active[k]/∂p` at point `pt`: its Jacobian `jac` weighted by node `a`'s
-/// shape functions as the row quantities take them ([`U_FROM`]).
+/// `W[k][pg] = ∂u^a_active[k]/∂p` at point `pt` into `w`: its Jacobian `jac` weighted by node
+/// `a`'s shape functions as the row quantities take them ([`U_FROM`]). Each row's first term
+/// is written, not added to zeros: `w` is reused across points and nodes, not zero-filled and
+/// returned by value (ED's exact tangent moved and cleared 3 KB per point and node, 4 % of it).
 #[inline(always)]
 fn row_weights<const NU: usize, const NO: usize, const NP: usize>(
     pt: &crate::beam::element::GaussPoint,
     a: usize,
     jac: &[[B3; NP]; NO],
     active: &[usize; NU],
-) -> [[B3; NP]; NU] {
-    let mut w = [[B3::zero(); NP]; NU];
+    w: &mut [[B3; NP]; NU],
+) {
     for (wk, &ug) in w.iter_mut().zip(active) {
+        let mut written = false;
         // Outputs past `NO` are zero in this mode (EP: D only).
         for &(out, derivative, sign) in U_FROM[ug].iter().filter(|u| u.0 < NO) {
             let c = sign * if derivative { pt.dh[a] } else { pt.h[a] };
-            if c != 0.0 {
-                for (wkp, jp) in wk.iter_mut().zip(&jac[out]) {
+            if c == 0.0 {
+                continue;
+            }
+            for (wkp, jp) in wk.iter_mut().zip(&jac[out]) {
+                if written {
                     axpy(wkp, c, jp);
+                } else {
+                    *wkp = jp.scale_f(c);
                 }
             }
+            written = true;
+        }
+        if !written {
+            *wk = [B3::zero(); NP];
         }
     }
-    w
 }
 
 /// Point outputs, and their Jacobian `∂o/∂p` into `jac` in 3×3 blocks `[output group][input
