@@ -450,7 +450,8 @@ class Model:
 
         - `eta`: the initial η (default: the beam point closest to the follower); or
           `drive` (or `eta=drive(...)`) prescribes η(t) — its multiplier is the driving force
-          along the beam, and a number given as `eta` too must be its value at t = 0. Without a drive the contact point slides freely (unless `friction` is given).
+          along the beam, and a number given as `eta` too must be its value at t = 0.
+          Without a drive the contact point slides freely (unless `friction` is given).
         - `spring`: {"stiffness": N/m, "damping": N·s/m, "rest": η} along the beam.
         - `follower` may be "ground": a fixed guide the beam slides through.
         - `end_stops`: {"stiffness": N/m}: elastic stops at the beam's ends (else a free contact

@@ -31,6 +31,7 @@ const DRIVEN_ETA_AGREES: f64 = 1e-9;
 
 /// η given, driven or held by end stops, consistently.
 fn check_eta(model: &Model, sl: &SlidingJoint, c: &mut Checker, p: &str, who: &str) {
+    let drive = sl.drive.as_ref().map(TimeFunction::new);
     if let Some(eta) = sl.eta {
         if !(0.0..=1.0).contains(&eta) {
             c.err(
@@ -39,7 +40,7 @@ fn check_eta(model: &Model, sl: &SlidingJoint, c: &mut Checker, p: &str, who: &s
             );
         }
         // The drive sets the initial η; a given η must say the same (or be left out).
-        if let Some(Ok(f)) = sl.drive.as_ref().map(TimeFunction::new) {
+        if let Some(Ok(f)) = &drive {
             let start = f.value(0.0);
             if (start - eta).abs() > DRIVEN_ETA_AGREES {
                 c.err(
@@ -68,8 +69,8 @@ fn check_eta(model: &Model, sl: &SlidingJoint, c: &mut Checker, p: &str, who: &s
             );
         }
     }
-    if let Some(Ok(f)) = sl.drive.as_ref().map(TimeFunction::new) {
-        if let Some((t, eta)) = drive_leaves_beam(&f, model.simulation.t_end) {
+    if let Some(Ok(f)) = &drive {
+        if let Some((t, eta)) = drive_leaves_beam(f, model.simulation.t_end) {
             c.err(format!("{p}.drive"), format!("{who}: the prescribed η leaves the beam at t = {t:.6} s (η = {eta:.6}); η must stay in [0, 1] over the whole run"));
         }
     }
