@@ -443,6 +443,7 @@ impl Integrator {
         ctx: &StepCtx,
         factors: Factors,
     ) -> Result<f64, String> {
+        let factors = self.available(factors);
         self.assemble_tangent(sys, ctx, factors);
         let (rn, _) = inf_norm(&self.res);
         self.solve_update(factors)?;
@@ -451,7 +452,17 @@ impl Integrator {
 
     /// Assembles the residual and the tangent entries `factors` read (benchmarks).
     pub fn assemble_tangent(&mut self, sys: &System, ctx: &StepCtx, factors: Factors) {
+        let factors = self.available(factors);
         self.assemble_for(sys, ctx, Some(factors));
+    }
+
+    /// `factors`, or the exact matrix's where there is no decoupled system (EP): asking an
+    /// EP integrator for ED's decoupled factors gets its exact ones, not a panic.
+    fn available(&self, factors: Factors) -> Factors {
+        match factors {
+            Factors::Decoupled if !self.layout.ed() => Factors::Exact,
+            f => f,
+        }
     }
 
     /// All numeric LU factorizations so far (of the Newton matrix and of ED's decoupled
@@ -506,6 +517,7 @@ impl Integrator {
     /// Factors the assembled tangent (symbolic analysis reused) as the exact matrix or as
     /// ED's decoupled system.
     pub fn factor_tangent(&mut self, factors: Factors) -> Result<(), String> {
+        let factors = self.available(factors);
         self.factored_for = None;
         // The tangent in hand is the kind asked for: the exact values, or the decoupled
         // system's (assembled into its own values, the real ones then not exact).
@@ -1654,6 +1666,24 @@ pub(crate) mod tests {
                 );
             }
         }
+    }
+
+    /// Asking an EP integrator for ED's decoupled factors (the benchmarks' public calls) gets
+    /// its exact ones: the same update as `Factors::Exact`, where it used to index past the
+    /// beam's EP block and panic.
+    #[test]
+    fn an_ep_integrator_asked_for_decoupled_factors_uses_its_exact_ones() {
+        let model = free_collar();
+        let sys = crate::compile::compile(&model, Scheme::Ep).unwrap();
+        let h = model.simulation.dt;
+        let ctx = Integrator::step_ctx(&sys, &sys.initial, h);
+        let update = |factors: Factors| {
+            let mut integ = Integrator::new(&sys, &model.simulation);
+            integ.predict(&sys, &sys.initial, h);
+            integ.newton_iteration_with(&sys, &ctx, factors).unwrap();
+            integ.y.clone()
+        };
+        assert_eq!(update(Factors::Decoupled), update(Factors::Exact));
     }
 
     /// A rebuilt pattern keeps the counts of what was factored before it: numeric,
