@@ -38,12 +38,33 @@ pub struct Measure {
     pub constraint_scale: f64,
     /// Whether any row is NaN or infinite (`force_row` or `constraint_row` names it).
     pub finite: bool,
+    /// ∞-norm of the whole residual as stored (constraint rows scaled).
+    pub stored: f64,
 }
 
 impl Measure {
     /// Measures the residual `res` of the step in `ctx` whose force rows had the
     /// contribution magnitudes `activity`.
     pub fn of(sys: &System, ctx: &StepCtx, res: &[f64], activity: &[f64]) -> Measure {
+        Self::with_floor(sys, ctx, res, activity, Self::force_floor(sys, ctx))
+    }
+
+    /// The force residual below which a residual that stopped falling is round-off (N or
+    /// N·m): of the stiffest elastic force, or of the terms inside an inertia row. Fixed
+    /// over a step, so Newton computes it once per step.
+    pub fn force_floor(sys: &System, ctx: &StepCtx) -> f64 {
+        sys.force_roundoff
+            .max(1e3 * f64::EPSILON * momentum_per_step(sys, ctx))
+    }
+
+    /// [`Self::of`] with the step's [`Self::force_floor`] at hand.
+    pub fn with_floor(
+        sys: &System,
+        ctx: &StepCtx,
+        res: &[f64],
+        activity: &[f64],
+        force_floor: f64,
+    ) -> Measure {
         let first_row = ctx.layout.mult(0).min(res.len());
         let (mut force, mut force_row) = inf_norm(&res[..first_row]);
         // Friction rows come last; a slipping one's rows set its force (N), a force row.
@@ -77,16 +98,19 @@ impl Measure {
                 }
             }
         }
-        let acting = activity[..first_row].iter().fold(0.0f64, |m, a| m.max(*a));
+        let acting = max_magnitude(&activity[..first_row]).0;
         let weight = sys.mass_ref * sys.gravity.norm();
         let force_scale = acting.max(weight).max(sys.force_ref).max(1e-300);
         Measure {
             force,
             force_row,
             force_scale,
-            force_floor: sys
-                .force_roundoff
-                .max(1e3 * f64::EPSILON * momentum_per_step(sys, ctx)),
+            force_floor,
+            stored: if force.is_nan() || c_scaled.is_nan() {
+                f64::NAN
+            } else {
+                force.max(c_scaled)
+            },
             constraint: c_scaled / ctx.s,
             constraint_scale: force_scale / ctx.s,
             constraint_row: c_row,
@@ -180,19 +204,78 @@ fn momentum_per_step(sys: &System, ctx: &StepCtx) -> f64 {
     })
 }
 
-/// Largest magnitude and its index; a NaN wins (and is reported where it first occurs).
+/// Largest magnitude and its index (the first where it occurs); a NaN wins (and is
+/// reported where it first occurs).
 pub fn inf_norm(v: &[f64]) -> (f64, usize) {
-    let mut m = 0.0;
-    let mut at = 0;
-    for (i, x) in v.iter().enumerate() {
-        let a = x.abs();
-        if a.is_nan() {
-            return (f64::NAN, i);
-        }
-        if a > m {
-            m = a;
-            at = i;
+    let (m, nan) = max_magnitude(v);
+    if nan {
+        return (f64::NAN, v.iter().position(|x| x.is_nan()).unwrap_or(0));
+    }
+    (m, v.iter().position(|x| x.abs() == m).unwrap_or(0))
+}
+
+/// The largest magnitude in `v` (0 if empty) and whether `v` holds a NaN: in lanes, without
+/// a branch or a carried index, which the compiler turns into packed max and NaN tests
+/// (Newton measures every iterate's residual).
+fn max_magnitude(v: &[f64]) -> (f64, bool) {
+    const LANES: usize = 4;
+    let larger = |m: f64, a: f64| if a > m { a } else { m };
+    let mut max = [0.0f64; LANES];
+    let mut nan = [false; LANES];
+    let chunks = v.chunks_exact(LANES);
+    let tail = chunks.remainder();
+    for c in chunks {
+        for k in 0..LANES {
+            let a = c[k].abs();
+            max[k] = larger(max[k], a);
+            nan[k] |= a.is_nan();
         }
     }
-    (m, at)
+    let mut m = max.into_iter().fold(0.0, larger);
+    let mut any_nan = nan.contains(&true);
+    for x in tail {
+        m = larger(m, x.abs());
+        any_nan |= x.is_nan();
+    }
+    (m, any_nan)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::inf_norm;
+
+    /// The lanes and the tail (lengths around multiples of 4) give the scalar scan's answer:
+    /// the largest magnitude at its first index, a NaN at its first index whatever is larger.
+    #[test]
+    fn inf_norm_finds_the_first_largest_magnitude_and_the_first_nan() {
+        let scan = |v: &[f64]| {
+            let (mut m, mut at) = (0.0, 0);
+            for (i, x) in v.iter().enumerate() {
+                if x.is_nan() {
+                    return (f64::NAN, i);
+                }
+                if x.abs() > m {
+                    (m, at) = (x.abs(), i);
+                }
+            }
+            (m, at)
+        };
+        let same = |a: (f64, usize), b: (f64, usize)| {
+            (a.0 == b.0 || (a.0.is_nan() && b.0.is_nan())) && a.1 == b.1
+        };
+        assert_eq!(inf_norm(&[]), (0.0, 0));
+        for n in 1..=13 {
+            let v: Vec<f64> = (0..n).map(|i| ((i * 7) % 5) as f64 - 2.5).collect();
+            assert!(same(inf_norm(&v), scan(&v)), "{v:?}");
+            for at in 0..n {
+                let mut w = v.clone();
+                w[at] = -1e9;
+                assert!(same(inf_norm(&w), scan(&w)), "{w:?}");
+                w[n - 1 - at] = f64::NAN;
+                assert!(same(inf_norm(&w), scan(&w)), "{w:?}");
+                w[at] = f64::INFINITY;
+                assert!(same(inf_norm(&w), scan(&w)), "{w:?}");
+            }
+        }
+    }
 }

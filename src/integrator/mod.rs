@@ -853,6 +853,7 @@ impl Integrator {
         let mut stalls = 0;
         self.factored_this_solve = false;
         self.decoupled_from = None;
+        let force_floor = Measure::force_floor(sys, ctx);
         for it in 0..=self.max_iter {
             let mut reuse = self.keep_factors(sys, ctx, it, converged_before);
             let tangent = (!reuse).then(|| self.fresh_factors(ctx));
@@ -860,8 +861,8 @@ impl Integrator {
             if ctx.is_static() {
                 self.regularize_static(sys, ctx);
             }
-            let m = Measure::of(sys, ctx, &self.res, &self.activity);
-            report.residuals.push(inf_norm(&self.res).0);
+            let m = Measure::with_floor(sys, ctx, &self.res, &self.activity, force_floor);
+            report.residuals.push(m.stored);
             if !m.finite {
                 return Err(self.not_finite(sys, ctx, &m));
             }
