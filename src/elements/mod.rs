@@ -149,6 +149,14 @@ pub trait Kernel {
     {
         tangent_structure(self, ctx, y)
     }
+    /// For a kernel whose unknowns move during a run (a sliding joint's window of beam
+    /// nodes), a key of its block's shape: blocks of one shape have one [`Kernel::structure`]
+    /// wherever they sit, so a moved kernel takes the mask probed for its shape before
+    /// instead of being probed again. `None` (the default): probed whenever its unknowns
+    /// change.
+    fn structure_shape(&self) -> Option<usize> {
+        None
+    }
 }
 
 /// Adds the kernel's residual into `res` and, if `jac` is given, its exact tangent block into

@@ -16,6 +16,10 @@ pub struct BlockStructure {
     h: f64,
     unknowns: Vec<Vec<usize>>,
     masks: Vec<Vec<bool>>,
+    /// Masks probed per `(kernel, shape)` of kernels with a [`Kernel::structure_shape`]: a
+    /// sliding joint's window that moves on takes its shape's mask (probing the joint's
+    /// tangents at several contact points was half of a pattern rebuild).
+    shapes: Vec<(usize, usize, Vec<bool>)>,
     /// Kernels probed to build it (the others' masks were kept from an earlier one).
     #[cfg_attr(not(test), allow(dead_code))] // read by the tests of what a rebuild probes
     pub probed: usize,
@@ -61,26 +65,45 @@ impl BlockStructure {
 
     fn update(sys: &System, h: f64, known: Option<&Self>) -> Self {
         let mut unknowns: Vec<Vec<usize>> = Vec::new();
+        let mut kernel_shapes: Vec<Option<usize>> = Vec::new();
         for_each_kernel!(sys, |k| {
             unknowns.push(k.unknowns().to_vec());
+            kernel_shapes.push(k.structure_shape());
         });
         let known = known.filter(|k| k.h == h && k.unknowns.len() == unknowns.len());
-        // A kernel keeps its mask if it has the same unknowns; the others are probed.
+        let mut shapes = known.map_or_else(Vec::new, |k| k.shapes.clone());
+        // A kernel keeps its mask if it has the same unknowns, or takes its shape's; the
+        // others are probed.
+        let of_shape = |i: usize, shape: Option<usize>| {
+            let shape = shape?;
+            let (_, _, mask) = shapes.iter().find(|(k, s, _)| (*k, *s) == (i, shape))?;
+            Some(mask.clone())
+        };
         let mut masks: Vec<Option<Vec<bool>>> = unknowns
             .iter()
             .enumerate()
-            .map(|(i, u)| known.and_then(|k| (k.unknowns[i] == *u).then(|| k.masks[i].clone())))
+            .map(|(i, u)| {
+                let kept = known.and_then(|k| (k.unknowns[i] == *u).then(|| k.masks[i].clone()));
+                kept.or_else(|| of_shape(i, kernel_shapes[i]))
+            })
             .collect();
         let todo: Vec<bool> = masks.iter().map(Option::is_none).collect();
         let probed = todo.iter().filter(|&&t| t).count();
         if probed > 0 {
             probe_kernels(sys, h, &todo, &mut masks);
         }
+        let masks: Vec<Vec<bool>> = masks.into_iter().map(|m| m.unwrap_or_default()).collect();
+        for (i, shape) in kernel_shapes.iter().enumerate() {
+            if let (true, Some(shape)) = (todo[i], *shape) {
+                shapes.push((i, shape, masks[i].clone()));
+            }
+        }
         BlockStructure {
             h,
             probed,
             unknowns,
-            masks: masks.into_iter().map(|m| m.unwrap_or_default()).collect(),
+            masks,
+            shapes,
         }
     }
 }
@@ -177,6 +200,58 @@ mod tests {
             assert_eq!(kept.masks, fresh.masks, "{scheme:?}");
             // Another step size is another structure's probe: nothing kept.
             assert_eq!(before.reprobe(&sys, 2e-3).probed, kernels);
+        }
+    }
+
+    /// A sliding joint's window walked along the beam and back takes its shape's mask from
+    /// the first window of that shape (`Kernel::structure_shape`), and that mask is the one
+    /// probed afresh at every position: for each kind of sliding joint, on a straight beam
+    /// and on the pre-twisted beam slider (a beam node as follower), under both schemes. A
+    /// shape whose structure depended on where the window sits would fail here.
+    #[test]
+    fn a_moved_window_takes_its_shapes_mask_which_is_the_probed_one() {
+        let straight = crate::testing::collar_on_free_beam_yaml(0.125);
+        let twisted = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/examples/beam_slider/twisted_case1.yaml"
+        ))
+        .unwrap();
+        let models = ["sliding", "sliding_screw", "sliding_clamp"]
+            .map(|kind| straight.replace("type: sliding,", &format!("type: {kind},")))
+            .into_iter()
+            .chain([twisted]);
+        for yaml in models {
+            let model = crate::compile::from_yaml_str(&yaml).unwrap();
+            for scheme in [Scheme::Ep, Scheme::Ed] {
+                let mut sys = crate::compile::compile(&model, scheme).unwrap();
+                let h = 1e-3;
+                let mut kept = BlockStructure::probe(&sys, h);
+                let elements = match &sys.joints.iter().find_map(|j| j.as_sliding()) {
+                    Some(s) => s.beam_elements(),
+                    None => panic!("a sliding joint"),
+                };
+                let mut shapes = std::collections::BTreeSet::new();
+                let mut probes = 0;
+                let walk = (0..elements).chain((0..elements).rev());
+                for e in walk {
+                    for j in &mut sys.joints {
+                        if let Joint::Sliding(s) = j {
+                            s.place_window(e as f64 + 0.5);
+                            shapes.insert(s.structure_shape());
+                        }
+                    }
+                    kept = kept.reprobe(&sys, h);
+                    probes += kept.probed;
+                    let fresh = BlockStructure::probe(&sys, h);
+                    assert_eq!(kept.masks, fresh.masks, "{scheme:?}, window at element {e}");
+                }
+                assert!(shapes.len() >= 2, "windows of {shapes:?} nodes only");
+                assert!(
+                    probes < shapes.len(),
+                    "{scheme:?}: {probes} probes for windows of {} shapes",
+                    shapes.len()
+                );
+            }
         }
     }
 }

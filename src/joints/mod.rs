@@ -317,6 +317,9 @@ impl Kernel for Joint {
     fn structure(&self, ctx: &StepCtx, y: &[f64]) -> Vec<bool> {
         each_joint!(self, j => j.structure(ctx, y))
     }
+    fn structure_shape(&self) -> Option<usize> {
+        each_joint!(self, j => j.structure_shape())
+    }
     fn evaluate(
         &self,
         ctx: &StepCtx,

@@ -539,6 +539,11 @@ impl SlidingJoint {
         self.window
     }
 
+    /// The number of elements of the beam the contact slides on.
+    pub fn beam_elements(&self) -> usize {
+        self.path.elements
+    }
+
     /// Whether the window in place still serves a step starting at ζ: ζ lies at least
     /// `1 − WINDOW_HYSTERESIS` of an element inside each of its limits (the ends of a beam
     /// limit nothing).
@@ -1228,6 +1233,14 @@ impl Kernel for SlidingJoint {
             }
         }
         mask
+    }
+
+    /// The number of window nodes: the rest of the block (follower, ζ, multipliers) is the
+    /// joint's own, and each share couples its node with it by the same law, so windows of
+    /// as many nodes have one structure wherever they sit on the beam (the window at a
+    /// beam's end has fewer).
+    fn structure_shape(&self) -> Option<usize> {
+        Some(self.last_node() + 1 - self.first_node())
     }
 }
 
