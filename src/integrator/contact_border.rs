@@ -117,16 +117,19 @@ pub fn sliding_unknowns(sys: &System) -> Vec<usize> {
 /// rotations fill a node's triplets (a contact force's x component acts on x rows only, until
 /// turned).
 pub fn open_border(blocks: &[&[usize]], masks: &[Vec<bool>], border: &[usize]) -> Vec<Vec<bool>> {
-    let on = |g: &usize| border.binary_search(g).is_ok();
     blocks
         .iter()
         .zip(masks)
         .map(|(b, m)| {
             let n = b.len();
             let mut m = m.clone();
-            for (i, gi) in b.iter().enumerate() {
-                for (j, gj) in b.iter().enumerate() {
-                    m[i * n + j] |= on(gi) || on(gj);
+            let on: Vec<bool> = b.iter().map(|g| border.binary_search(g).is_ok()).collect();
+            if !on.contains(&true) {
+                return m;
+            }
+            for (i, &row_on) in on.iter().enumerate() {
+                for (j, &col_on) in on.iter().enumerate() {
+                    m[i * n + j] |= row_on || col_on;
                 }
             }
             m

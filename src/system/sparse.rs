@@ -114,14 +114,22 @@ impl<T: Entry> NewtonMatrix<T> {
             .map(|(bi, b)| {
                 let m = b.len();
                 let mut p = vec![value_pos(dump); m * m];
-                for (i, &gi) in b.iter().enumerate() {
-                    for (j, &gj) in b.iter().enumerate() {
-                        if keep(bi, i, j) {
-                            let col = &row_idx[col_ptr[gj]..col_ptr[gj + 1]];
-                            p[i * m + j] = value_pos(
-                                col_ptr[gj] + col.binary_search(&gi).expect("entry in pattern"),
-                            );
+                // The block's rows in ascending order, merged with each column's (sorted)
+                // rows: a walk per column instead of a binary search per entry.
+                let mut rows: Vec<usize> = (0..m).collect();
+                rows.sort_unstable_by_key(|&i| b[i]);
+                for (j, &gj) in b.iter().enumerate() {
+                    let col = &row_idx[col_ptr[gj]..col_ptr[gj + 1]];
+                    let mut at = 0;
+                    for &i in &rows {
+                        if !keep(bi, i, j) {
+                            continue;
                         }
+                        while col[at] < b[i] {
+                            at += 1;
+                        }
+                        assert_eq!(col[at], b[i], "entry in pattern");
+                        p[i * m + j] = value_pos(col_ptr[gj] + at);
                     }
                 }
                 p
