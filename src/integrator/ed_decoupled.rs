@@ -124,8 +124,21 @@ impl DecoupledMatrix {
     /// tangent's pattern (rows sorted in each column).
     pub fn new(layout: Layout, col_ptr: &[usize], row_idx: &[usize]) -> Self {
         let np = layout.n_pairs();
-        let mut cols: Vec<Vec<usize>> = (0..np).map(|p| vec![p]).collect();
-        let mut sources = Vec::new();
+        // Room for every real entry of a pair's two columns, so no vector grows.
+        let mut room = vec![1usize; np];
+        for j in 0..col_ptr.len() - 1 {
+            room[layout.pair(j).0] += col_ptr[j + 1] - col_ptr[j];
+        }
+        let mut cols: Vec<Vec<usize>> = room
+            .into_iter()
+            .enumerate()
+            .map(|(p, room)| {
+                let mut col = Vec::with_capacity(room);
+                col.push(p);
+                col
+            })
+            .collect();
+        let mut sources = Vec::with_capacity(row_idx.len());
         for j in 0..col_ptr.len() - 1 {
             for (p, &i) in row_idx
                 .iter()
