@@ -188,6 +188,15 @@ impl DecoupledMatrix {
         self.matrix.numeric_factorizations - self.matrix.refactorizations
     }
 
+    /// [`Self::pivoting_factorizations`], the counts then cleared: the matrix is kept for
+    /// its pattern's return (`kept_patterns`), its work already counted.
+    pub fn retire_counts(&mut self) -> usize {
+        let pivoting = self.pivoting_factorizations();
+        self.matrix.numeric_factorizations = 0;
+        self.matrix.refactorizations = 0;
+        pivoting
+    }
+
     /// The values cleared for the kernels to add ED's tangent entries into, at their
     /// [`DecoupledSystem::pos`] (as `f64`s; see [`Part`]).
     pub fn start_assembly(&mut self) -> &mut [f64] {

@@ -7,6 +7,7 @@ pub mod convergence;
 pub mod corotation;
 pub mod dense_output;
 mod ed_decoupled;
+mod kept_patterns;
 mod load_response;
 mod positions;
 pub mod predictor;
@@ -237,6 +238,12 @@ pub struct Integrator {
     exact_in_pairs: bool,
     /// Steps whose kept factors had their border refreshed.
     pub border_refreshes: usize,
+    /// The sliding windows the pattern in hand was built for, and the patterns built for
+    /// others that were left (see [`kept_patterns`]).
+    placement: kept_patterns::Placement,
+    kept: kept_patterns::KeptPatterns,
+    /// Pattern rebuilds that took back a kept pattern.
+    pub patterns_taken_back: usize,
 }
 
 /// A Newton matrix's pattern, each kernel's block positions in it and the block structure
@@ -303,29 +310,75 @@ impl Integrator {
     /// joint's window moved to the next element): only that kernel's structure is probed
     /// again. The factors in hand go with the old pattern; the counters, the predictor's
     /// trend and what the step history taught about factors carry on.
+    ///
+    /// A pattern built for the same windows before is taken back as it was left (see
+    /// [`kept_patterns`]); the one left is kept.
     pub fn rebuild_pattern(&mut self, sys: &System, h: f64) {
-        let fresh = Pattern::of(sys, self.structure.reprobe(sys, h), self.modified_newton);
-        let old = std::mem::replace(&mut self.matrix, fresh.matrix);
-        self.matrix.numeric_factorizations += old.numeric_factorizations;
-        self.matrix.refactorizations += old.refactorizations;
-        self.matrix.orderings += old.orderings;
-        self.structure = fresh.structure;
-        self.pos = fresh.pos;
-        if let Some(d) = self.decoupled.take() {
-            self.retired_decoupled_pivoting += d.matrix.pivoting_factorizations();
-        }
+        let placement = kept_patterns::placement(sys);
+        let incoming = match self.kept.take(&placement) {
+            Some(set) => {
+                self.patterns_taken_back += 1;
+                set
+            }
+            None => self.new_pattern(sys, h, placement),
+        };
+        let left = self.swap_pattern(incoming);
+        self.kept.keep(left);
         self.factored_for = None;
         self.factors = Factors::Exact;
         self.values_exact = false;
         self.factored_this_solve = false;
         self.corotation = CoRotation::new(sys);
-        self.contact_border =
-            ContactBorder::new(sys, &self.matrix).filter(|_| self.modified_newton);
-        self.decoupled_border = None;
-        self.paired = None;
         self.exact_in_pairs = false;
         self.served.restart();
         self.pattern_rebuilds += 1;
+    }
+
+    /// The pattern of `sys` as its sliding windows are now placed (only kernels with new
+    /// unknowns probed).
+    fn new_pattern(
+        &self,
+        sys: &System,
+        h: f64,
+        placement: kept_patterns::Placement,
+    ) -> kept_patterns::PatternSet {
+        let fresh = Pattern::of(sys, self.structure.reprobe(sys, h), self.modified_newton);
+        let contact_border =
+            ContactBorder::new(sys, &fresh.matrix).filter(|_| self.modified_newton);
+        kept_patterns::PatternSet {
+            placement,
+            matrix: fresh.matrix,
+            pos: fresh.pos,
+            structure: fresh.structure,
+            decoupled: None,
+            paired: None,
+            contact_border,
+            decoupled_border: None,
+        }
+    }
+
+    /// Puts `incoming` in place and returns the pattern it replaces, whose matrices' counts
+    /// pass to the incoming ones (a kept pattern carries none).
+    fn swap_pattern(&mut self, incoming: kept_patterns::PatternSet) -> kept_patterns::PatternSet {
+        use std::mem::replace;
+        let mut left = kept_patterns::PatternSet {
+            placement: replace(&mut self.placement, incoming.placement),
+            matrix: replace(&mut self.matrix, incoming.matrix),
+            pos: replace(&mut self.pos, incoming.pos),
+            structure: replace(&mut self.structure, incoming.structure),
+            decoupled: replace(&mut self.decoupled, incoming.decoupled),
+            paired: replace(&mut self.paired, incoming.paired),
+            contact_border: replace(&mut self.contact_border, incoming.contact_border),
+            decoupled_border: replace(&mut self.decoupled_border, incoming.decoupled_border),
+        };
+        let (old, new) = (&mut left.matrix, &mut self.matrix);
+        new.numeric_factorizations += replace(&mut old.numeric_factorizations, 0);
+        new.refactorizations += replace(&mut old.refactorizations, 0);
+        new.orderings += replace(&mut old.orderings, 0);
+        if let Some(d) = left.decoupled.as_mut() {
+            self.retired_decoupled_pivoting += d.matrix.retire_counts();
+        }
+        left
     }
 
     fn with_pattern(
@@ -380,6 +433,9 @@ impl Integrator {
             paired: None,
             exact_in_pairs: false,
             border_refreshes: 0,
+            placement: kept_patterns::placement(sys),
+            kept: Default::default(),
+            patterns_taken_back: 0,
         }
     }
 

@@ -1,0 +1,153 @@
+//! Newton matrices kept per placement of the sliding contacts' windows.
+//!
+//! A sliding joint's window of beam nodes moves when its contact point crosses into another
+//! element, and the Newton matrix's pattern changes with it: a new pattern, ordering, block
+//! positions, decoupled system and block factors, and a first factorization that chooses its
+//! pivots. A contact that oscillates (the beam slider's driven collar, a collar bouncing
+//! between end stops) brings its windows back again and again; the patterns built for
+//! them are kept here, a few, and taken back whole — their ordering, and pivots that a
+//! refactorization tries first.
+//!
+//! A kept pattern's matrices carry no counts: they were handed to the matrix that took over
+//! (the integrator's totals stay those of the work done).
+
+use super::contact_border::ContactBorder;
+use super::ed_decoupled::DecoupledSystem;
+use super::positions::KernelPositions;
+use super::structure::BlockStructure;
+use crate::system::paired::PairedLu;
+use crate::system::sparse::NewtonMatrix;
+use crate::system::System;
+
+/// Patterns kept at most (the most recently left first to go).
+const KEPT: usize = 4;
+
+/// Matrices with more entries than this are not kept: at that size a rebuild's cost is
+/// small beside the steps between crossings, and four spare sets of factors are not.
+const KEEP_BELOW_ENTRIES: usize = 1 << 20;
+
+/// Each sliding joint's window (element range), in joint order: what a pattern depends on
+/// beyond the system itself.
+pub type Placement = Vec<(usize, usize)>;
+
+pub fn placement(sys: &System) -> Placement {
+    sys.joints
+        .iter()
+        .filter_map(|j| j.as_sliding())
+        .map(|s| s.window())
+        .collect()
+}
+
+/// Everything an integrator builds for one pattern.
+pub struct PatternSet {
+    pub placement: Placement,
+    pub matrix: NewtonMatrix,
+    pub pos: KernelPositions,
+    pub structure: BlockStructure,
+    pub decoupled: Option<DecoupledSystem>,
+    pub paired: Option<PairedLu>,
+    pub contact_border: Option<ContactBorder>,
+    pub decoupled_border: Option<ContactBorder<faer::c64>>,
+}
+
+/// The patterns left, most recently left last.
+#[derive(Default)]
+pub struct KeptPatterns {
+    sets: Vec<PatternSet>,
+}
+
+impl KeptPatterns {
+    /// The set kept for `placement`, if any (removed from the kept ones).
+    pub fn take(&mut self, placement: &Placement) -> Option<PatternSet> {
+        let at = self.sets.iter().position(|s| s.placement == *placement)?;
+        Some(self.sets.remove(at))
+    }
+
+    /// Keeps a set just left (unless its matrix is too large); the one left longest ago goes
+    /// when more than [`KEPT`] are kept.
+    pub fn keep(&mut self, set: PatternSet) {
+        if set.matrix.nnz() > KEEP_BELOW_ENTRIES {
+            return;
+        }
+        self.sets.push(set);
+        if self.sets.len() > KEPT {
+            self.sets.remove(0);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::Integrator;
+    use crate::joints::Joint;
+    use crate::math::layout::Scheme;
+    use crate::system::System;
+
+    fn place_windows(sys: &mut System, zeta: Option<f64>) {
+        let coords = sys.initial.coords.clone();
+        for j in &mut sys.joints {
+            if let Joint::Sliding(s) = j {
+                s.place_window(zeta.unwrap_or(coords[s.coord]));
+            }
+        }
+    }
+
+    /// A sliding window that moves away and comes back takes back the pattern built for it
+    /// — the same pattern, with nothing ordered again — without counting its factorizations
+    /// twice, and steps on as an integrator that never left it: to 1e-9 m, Newton's
+    /// tolerance with a margin (the pattern taken back starts from fresh factors, the other
+    /// from kept ones), under both schemes.
+    #[test]
+    fn a_returning_window_takes_back_its_pattern() {
+        let path = format!("{}/examples/free_collar.yaml", env!("CARGO_MANIFEST_DIR"));
+        let text = std::fs::read_to_string(path).unwrap();
+        let model = crate::compile::from_yaml_str(&text).unwrap();
+        let h = model.simulation.dt;
+        for scheme in [Scheme::Ep, Scheme::Ed] {
+            let mut sys = crate::compile::compile(&model, scheme).unwrap();
+            let mut moved = Integrator::new(&sys, &model.simulation);
+            let mut stayed = Integrator::new(&sys, &model.simulation);
+            let (mut a, mut b) = (sys.initial.clone(), sys.initial.clone());
+            for _ in 0..5 {
+                a = moved.step(&sys, &a, h).unwrap().0;
+                b = stayed.step(&sys, &b, h).unwrap().0;
+            }
+            let counts = |i: &Integrator| {
+                [
+                    i.factorizations(),
+                    i.pivoting_factorizations(),
+                    i.matrix.orderings,
+                ]
+            };
+            let before = counts(&moved);
+            let pattern = {
+                let (c, r) = moved.matrix.pattern();
+                (c.to_vec(), r.to_vec())
+            };
+            place_windows(&mut sys, Some(1.5));
+            moved.rebuild_pattern(&sys, h);
+            place_windows(&mut sys, None);
+            moved.rebuild_pattern(&sys, h);
+            assert_eq!(moved.patterns_taken_back, 1, "{scheme:?}");
+            let (c, r) = moved.matrix.pattern();
+            assert!(
+                c == pattern.0 && r == pattern.1,
+                "{scheme:?}: another pattern"
+            );
+            let [f, p, o] = counts(&moved);
+            assert_eq!([f, p], before[..2], "{scheme:?}: counted twice");
+            assert_eq!(
+                o,
+                before[2] + 1,
+                "{scheme:?}: only the pattern away ordered"
+            );
+            for _ in 0..10 {
+                a = moved.step(&sys, &a, h).unwrap().0;
+                b = stayed.step(&sys, &b, h).unwrap().0;
+            }
+            for (na, nb) in a.nodes.iter().zip(&b.nodes) {
+                assert!((na.x - nb.x).norm() < 1e-9, "{scheme:?}");
+            }
+        }
+    }
+}
