@@ -22,9 +22,10 @@ use crate::system::System;
 /// Patterns kept at most (the most recently left first to go).
 const KEPT: usize = 4;
 
-/// Matrices with more entries than this are not kept: at that size a rebuild's cost is
-/// small beside the steps between crossings, and four spare sets of factors are not.
-const KEEP_BELOW_ENTRIES: usize = 1 << 20;
+/// Matrices with more entries than this are not kept: a kept set holds the real, complex and
+/// block factors (~20 MB at this size, four times the beam slider's), and at larger sizes a
+/// rebuild's cost is small beside the steps between crossings.
+const KEEP_BELOW_ENTRIES: usize = 1 << 18;
 
 /// Each sliding joint's window (element range), in joint order: what a pattern depends on
 /// beyond the system itself.
