@@ -1,6 +1,6 @@
 """ED's cost per step against EP's at equal fixed step size (issue 17, item 2).
 
-    python benches/ed_vs_ep.py [--repeats 3] [--dt 1e-3] [--t-end 1.0]
+    python benches/ed_vs_ep.py [--repeats 3] [--dt 1e-3] [--t-end 1.0] [--models a,b]
 
 Runs each example with both schemes at the same fixed step and default Newton (modified
 Newton, kept factors), interleaved, and prints the median process CPU per step, the Newton
@@ -15,7 +15,15 @@ from pathlib import Path
 import flexdyn as fd
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
-MODELS = ("beam_pendulum", "free_collar", "four_bar")
+# The beam pendulum, the collar sliding freely on a tumbling beam, a linkage, and the paper's
+# beam sliders (a collar driven along the beam: its window crosses elements and comes back).
+MODELS = (
+    "beam_pendulum",
+    "free_collar",
+    "four_bar",
+    "beam_slider/case1",
+    "beam_slider/twisted_case1",
+)
 
 
 def run(model: str, scheme: str, dt: float, t_end: float) -> tuple[float, dict]:
@@ -31,14 +39,16 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--dt", type=float, default=1e-3)
     ap.add_argument("--t-end", type=float, default=1.0)
+    ap.add_argument("--models", default=",".join(MODELS), help="examples, comma-separated")
     args = ap.parse_args()
+    models = args.models.split(",")
     # Untimed: the process's first results pay xarray's one-time imports (0.2–0.5 s with dask
     # installed), which the first timed run (EP on the beam pendulum) would otherwise carry.
-    run(MODELS[0], "ep", args.dt, args.dt)
+    run(models[0], "ep", args.dt, args.dt)
     print(f"fixed h = {args.dt} s, {args.t_end} s simulated, median of {args.repeats}")
     print("| model | scheme | µs per step | iterations | factorizations | solves | ED/EP |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
-    for model in MODELS:
+    for model in models:
         times: dict[str, list[float]] = {"ep": [], "ed": []}
         stats: dict[str, dict] = {}
         for _ in range(args.repeats):
