@@ -64,16 +64,22 @@ impl KeptPatterns {
         Some(self.sets.remove(at))
     }
 
-    /// Keeps a set just left (unless its matrix is too large); the one left longest ago goes
-    /// when more than [`KEPT`] are kept.
+    /// Keeps a set just left (unless its matrix is too large) in place of any kept for the
+    /// same placement; the one left longest ago goes when more than [`KEPT`] are kept.
     pub fn keep(&mut self, set: PatternSet) {
         if set.matrix.nnz() > KEEP_BELOW_ENTRIES {
             return;
         }
+        self.sets.retain(|s| s.placement != set.placement);
         self.sets.push(set);
         if self.sets.len() > KEPT {
             self.sets.remove(0);
         }
+    }
+
+    #[cfg(test)]
+    fn placements(&self) -> Vec<&Placement> {
+        self.sets.iter().map(|s| &s.placement).collect()
     }
 }
 
@@ -150,5 +156,36 @@ mod tests {
                 assert!((na.x - nb.x).norm() < 1e-9, "{scheme:?}");
             }
         }
+    }
+
+    /// One pattern kept per placement other than the one in place, at most four, the one
+    /// left longest ago going first.
+    #[test]
+    fn one_pattern_is_kept_per_placement_and_four_at_most() {
+        let yaml = crate::testing::collar_on_free_beam_yaml(0.5);
+        let model = crate::compile::from_yaml_str(&yaml).unwrap();
+        let mut sys = crate::compile::compile(&model, Scheme::Ep).unwrap();
+        let h = model.simulation.dt;
+        let mut integ = Integrator::new(&sys, &model.simulation);
+        let start = super::placement(&sys);
+        // Rebuilt for the windows in place: nothing is kept for them.
+        integ.rebuild_pattern(&sys, h);
+        assert!(integ.kept.placements().is_empty());
+        let mut visited = vec![start];
+        for zeta in [0.5, 1.5, 2.5, 3.5, 4.5, 5.5, 3.0] {
+            place_windows(&mut sys, Some(zeta));
+            let here = super::placement(&sys);
+            if here == *visited.last().unwrap() {
+                continue;
+            }
+            integ.rebuild_pattern(&sys, h);
+            visited.retain(|p| *p != here);
+            visited.push(here);
+        }
+        // The current placement is not kept; the four left most recently are, oldest first.
+        let current = visited.pop().unwrap();
+        let expected: Vec<_> = visited.iter().rev().take(4).rev().collect();
+        assert_eq!(integ.kept.placements(), expected);
+        assert!(!integ.kept.placements().contains(&&current));
     }
 }

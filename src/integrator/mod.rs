@@ -323,7 +323,9 @@ impl Integrator {
             None => self.new_pattern(sys, h, placement),
         };
         let left = self.swap_pattern(incoming);
-        self.kept.keep(left);
+        if left.placement != self.placement {
+            self.kept.keep(left);
+        }
         self.factored_for = None;
         self.factors = Factors::Exact;
         self.values_exact = false;
