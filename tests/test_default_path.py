@@ -119,7 +119,7 @@ def cantilever(angle_deg, t_end=0.05):
     m.clamp("root", "ground", "beam.0")
     m.sensor("node_displacement", "tip", node="beam.6")
     m.sensor("beam_section", "mid", beam="beam", eta=0.5)
-    m.simulation(t_end=t_end)
+    m.simulation(t_end=t_end, preload=False)  # a release; by default it starts in its sag
     return m
 
 
@@ -383,3 +383,80 @@ def test_a_cardan_driveline_turns_its_output_as_the_universal_joint_must(scheme)
     rate2 = 20.0 * np.cos(beta) / (1.0 - np.sin(beta) ** 2 * np.sin(phi1) ** 2)
     assert np.abs(res["out.phi"].values - phi2).max() < 3e-4
     assert np.abs(res["out.phi_rate"].values - rate2).max() < 2e-2
+
+
+STEEL = {"E": 2.1e11, "G": 8.1e10, "density": 7850.0}
+
+
+def shuttle(t_end=3.0, preload=None):
+    """A 20 kg carriage driven along a 2 m steel cantilever (40 × 40 mm) under gravity:
+    η = 0.55 + 0.35 smoothstep(0, 1, t) sin(0.4πt), slow against the beam's first mode
+    (≈ 4 Hz with the carriage), so the beam follows quasi-statically."""
+    m = fd.Model("shuttle", gravity=[0, 0, -9.81])
+    shape = {"rectangle": {"width": 0.04, "height": 0.04}}
+    m.beam("rail", [0, 0, 0], [2.0, 0, 0], elements=10, section={"material": STEEL, "shape": shape})
+    m.clamp("root", "ground", "rail.start")
+    m.node("carriage", [1.1, 0, 0]).body("carriage_mass", "carriage", mass=20.0, inertia=[0.05] * 3)
+    m.sliding("track", "rail", "carriage", drive="0.55 + 0.35*smoothstep(0, 1, t)*sin(2*pi*0.2*t)")
+    m.sensor("node_position", "tip", node="rail.end").sensor("joint_coordinate", "pos", joint="track")
+    m.simulation(t_end=t_end, preload=preload)
+    return m
+
+
+def shuttle_static_tip(eta):
+    """The tip's static deflection, m: the carriage's weight P at a = ηL plus the rail's own
+    weight q, P a²(3L − a)/6EI + qL⁴/8EI (Euler–Bernoulli; shear adds 1e-4 of it here)."""
+    length, ei = 2.0, 2.1e11 * 0.04**4 / 12
+    p, q, a = 20.0 * 9.81, 7850.0 * 0.04**2 * 9.81, eta * length
+    return -(p * a**2 * (3 * length - a) / (6 * ei) + q * length**4 / (8 * ei))
+
+
+def test_a_structure_at_rest_under_gravity_starts_in_its_static_sag():
+    # With the defaults the rail starts in its static equilibrium (the carriage's and its own
+    # weight: a 9.8 mm tip sag) and follows the static formula as the carriage moves. Within
+    # 1 % of the peak sag: measured 0.40 %, the carriage's inertia and the beam's dynamic
+    # response at (0.2 Hz / 4 Hz)² ≈ 0.25 %. Released unstrained (`preload: false`, the
+    # default before) it rang ±14 mm about that sag the whole run, without a warning.
+    res = fd.simulate(shuttle())
+    assert res.flexdyn.warnings == []
+    tip, static = res["tip.z"].values, shuttle_static_tip(res["pos.eta"].values)
+    peak = np.abs(static).max()
+    assert np.abs(tip - static).max() < 1e-2 * peak
+    # The start is the static equilibrium itself: as `preload: true` puts it.
+    static_start = fd.simulate(shuttle(t_end=0.01, preload=True))["tip.z"].values[0]
+    assert tip[0] == pytest.approx(static_start, rel=1e-9)  # both are Newton-converged statics
+    released = fd.simulate(shuttle(t_end=0.2, preload=False))
+    assert released["tip.z"].values[0] == 0.0
+    ring = released["tip.z"].values - shuttle_static_tip(released["pos.eta"].values)
+    assert np.abs(ring).max() > 0.5 * peak  # the release swings about the sag, by the sag
+
+
+def test_a_mechanism_released_from_rest_starts_as_given():
+    # The beam pendulum, released horizontally at rest: its rigidified mechanism falls at g,
+    # so it is no structure at rest and starts unstrained, as given (no sag at t = 0).
+    m = fd.load(ROOT / "examples" / "beam_pendulum.yaml")
+    m.sensor("node_displacement", "tip_u", node="tip")
+    res = fd.simulate(m, t_end=0.01)
+    assert res.flexdyn.warnings == []
+    assert np.abs([res[f"tip_u.{c}"].values[0] for c in "xyz"]).max() == 0.0
+
+
+def test_a_structure_too_soft_to_start_in_its_sag_is_warned_of():
+    # A 2 m rubber-soft cantilever would sag by more than 10 % of its length: no elastic
+    # deflection the start may assume, so it starts unstrained, and the warning names the
+    # beam and the two ways out. `preload: false` asks for that start: no warning then.
+    def floppy(preload=None):
+        m = fd.Model("floppy", gravity=[0, 0, -9.81])
+        section = {"ea": 1e6, "ga2": 1e6, "ga3": 1e6, "gj": 5.0, "ei2": 5.0, "ei3": 5.0, "m": 1.0,
+                   "i22": 1e-4, "i33": 1e-4}
+        m.beam("strip", [0, 0, 0], [2.0, 0, 0], elements=4, section=section)
+        m.clamp("root", "ground", "strip.0")
+        m.sensor("node_displacement", "tip", node="strip.12")
+        m.simulation(t_end=0.01, preload=preload)
+        return m
+
+    res = fd.simulate(floppy())
+    [warning] = res.flexdyn.warnings
+    assert "`strip`" in warning and "preload: true" in warning and "preload: false" in warning
+    assert res["tip.z"].values[0] == 0.0
+    assert fd.simulate(floppy(preload=False)).flexdyn.warnings == []

@@ -46,6 +46,12 @@ def test_the_worked_example_of_the_readme_runs_with_its_blades_alike():
     for top, bottom in peaks:
         assert 1000 < top < 1400 and -1400 < bottom < -1000, peaks
     assert np.ptp([p[0] for p in peaks]) < 0.03 * peaks[0][0], peaks
+    # At rest at t = 0 (its drives start from rest), it starts in its static sag: the first
+    # sample's root moments are the static solve's (both Newton-converged: 1e-9).
+    static = fd.solve_static(script["wind_turbine"]().simulation(analysis="static"))
+    for k in (2, 3):
+        start, sag = res[f"root{k}.M3"].values[0], static[f"root{k}.M3"].values[-1]
+        assert abs(sag) > 1000 and start == pytest.approx(sag, rel=1e-9)
 
 
 def test_the_readme_worked_example_code_runs_as_printed(tmp_path, monkeypatch):

@@ -632,8 +632,10 @@ class Model:
         the full-field motion for `flexdyn view`/`export`; default: when ≤ 100 MB); step_control
         ("adaptive", the default, or "fixed") with tolerance (m), dt_min, dt_max, max_growth,
         max_shrink, max_step_halvings; Newton's newton_tol, newton_increment_tol,
-        max_newton_iterations, modified_newton; load_steps (static); preload (start a dynamic
-        run from the static equilibrium at t = 0); inertial_preload (default True: beams that
+        max_newton_iterations, modified_newton; load_steps (static); preload (True: start a dynamic
+        run from the static equilibrium at t = 0; False: start the beams unstrained, as given;
+        unset: a structure at rest under gravity or loads starts in its static equilibrium,
+        anything else as given); inertial_preload (default True: beams that
         drives moving at t = 0 carry along start strained by that motion's inertial loads)."""
         given = {k: v for k, v in locals().items() if k != "self" and v is not None}
         self.data["simulation"].update(copy.deepcopy(given))

@@ -1202,10 +1202,13 @@ pub struct SimulationSettings {
     pub dt_min: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dt_max: Option<f64>,
-    /// Dynamic analysis: start from the static equilibrium under the loads and gravity at
-    /// t = 0 (solved with `load_steps`), with the given velocities made consistent there.
-    #[serde(default)]
-    pub preload: bool,
+    /// Dynamic analysis: `true` starts from the static equilibrium under the loads and
+    /// gravity at t = 0 (solved with `load_steps`), with the given velocities made consistent
+    /// there; `false` starts the beams unstrained, as given (a release). Unset (the default):
+    /// a structure at rest under gravity or loads at t = 0 starts in its static equilibrium,
+    /// anything else as given (see `simulation::inertial_preload::preload_at_rest`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preload: Option<bool>,
     /// Dynamic analysis: when drives already move at t = 0 and carry beams along, start the
     /// beams in quasi-static equilibrium with that motion's inertial loads (and gravity and
     /// the loads at t = 0), so they follow smoothly instead of ringing; `false` starts them
@@ -1295,7 +1298,7 @@ impl Default for SimulationSettings {
             modified_newton: true,
             step_control: StepControl::default(),
             tolerance: default_tolerance(),
-            preload: false,
+            preload: None,
             inertial_preload: true,
             dt_min: None,
             dt_max: None,

@@ -245,6 +245,25 @@ pub fn unstrained_start(system: &System, state: &State, preload: bool) -> Option
     ))
 }
 
+/// The model's beams (their names, listed) if it starts at rest — no node moving, no
+/// coordinate or drive changing, nothing spun — with gravity or loads on it: a structure
+/// whose beams would start unstrained under them (see `inertial_preload::preload_at_rest`).
+pub fn loaded_at_rest(system: &System, state: &State) -> Option<String> {
+    let loaded =
+        system.gravity.norm() > 0.0 || !system.loads.is_empty() || !system.line_loads.is_empty();
+    let still = |v: V3<f64>| v.norm() == 0.0;
+    let at_rest = state.nodes.iter().all(|n| still(n.v) && still(n.w))
+        && state.coord_rates.iter().all(|&q| q == 0.0)
+        && system.drives.iter().all(|d| d.target_rate(state.t) == 0.0)
+        && system.node_spin.iter().all(Option::is_none);
+    let beams: Vec<String> = system
+        .beam_info
+        .iter()
+        .map(|b| format!("`{}`", b.name))
+        .collect();
+    (loaded && at_rest && !beams.is_empty()).then(|| beams.join(", "))
+}
+
 /// The drives already moving at t = 0 on joints of nodes whose given velocities were
 /// adjusted (`adjusted(node)`): they make the start impulsive — the fix is then the model's
 /// choice, not a slip.
