@@ -17,6 +17,8 @@
 //! the transient comes from their rate of change, smaller by the ratio of the motion's
 //! frequency to the beams'.
 
+use std::collections::HashMap;
+
 use super::{SimError, Simulation};
 use crate::compile;
 use crate::elements::loads::{LoadKind, PointLoad};
@@ -196,21 +198,75 @@ fn rigid_accelerations(
         .collect())
 }
 
-/// `model` with every beam made rigid: a clamp between each pair of consecutive nodes.
+/// `model` with every beam made rigid: a clamp between each pair of consecutive nodes,
+/// except where the pair is already rigidly joined (through the model's clamps or the clamps
+/// added so far): a closed frame — a portal's columns and girder clamped to the ground and
+/// to each other — would otherwise be clamped around its loop, redundantly, and the
+/// rigidified mechanism's matrix be singular.
 fn rigidified(model: &Model) -> Model {
     let mut rigid = model.clone();
     rigid.initial_spins.clear();
     rigid.simulation.preload = Some(false);
+    let mut joined = RigidSets::of_clamps(model);
     for (i, b) in model.beams.iter().enumerate() {
         for k in 0..b.node_count().saturating_sub(1) {
-            rigid.joints.push(Joint::Clamp(ClampJoint {
-                name: format!("__rigid_{i}_{k}"),
-                node1: b.node_name(k),
-                node2: b.node_name(k + 1),
-            }));
+            let (node1, node2) = (b.node_name(k), b.node_name(k + 1));
+            if joined.join(&node1, &node2) {
+                rigid.joints.push(Joint::Clamp(ClampJoint {
+                    name: format!("__rigid_{i}_{k}"),
+                    node1,
+                    node2,
+                }));
+            }
         }
     }
     rigid
+}
+
+/// Nodes joined rigidly to each other (union–find by name; `ground` is one of them).
+struct RigidSets {
+    index: HashMap<String, usize>,
+    parent: Vec<usize>,
+    aliases: HashMap<String, String>,
+}
+
+impl RigidSets {
+    /// The sets the model's own clamps join (beam end aliases resolved).
+    fn of_clamps(model: &Model) -> Self {
+        let aliases = model.beams.iter().flat_map(|b| b.end_aliases()).collect();
+        let mut sets = RigidSets {
+            index: HashMap::new(),
+            parent: Vec::new(),
+            aliases,
+        };
+        for joint in &model.joints {
+            if let Joint::Clamp(c) = joint {
+                sets.join(&c.node1, &c.node2);
+            }
+        }
+        sets
+    }
+
+    fn root(&mut self, name: &str) -> usize {
+        let name = self.aliases.get(name).map_or(name, String::as_str);
+        let next = self.parent.len();
+        let mut a = *self.index.entry(name.to_string()).or_insert(next);
+        if a == next {
+            self.parent.push(next);
+        }
+        while self.parent[a] != a {
+            self.parent[a] = self.parent[self.parent[a]];
+            a = self.parent[a];
+        }
+        a
+    }
+
+    /// Joins the sets of `a` and `b`; `false` if they were one already.
+    fn join(&mut self, a: &str, b: &str) -> bool {
+        let (ra, rb) = (self.root(a), self.root(b));
+        self.parent[ra] = rb;
+        ra != rb
+    }
 }
 
 /// The pre-load may strain the beams, not move the mechanism: a free motion the loads do not
