@@ -158,3 +158,21 @@ def test_driven_fourbar_kinematics_and_torque(scheme):
     assert np.max(np.abs(w - (ke - ke[0]))) < 1e-9 * np.max(ke)
     # Velocities were not given: they are completed from the drive without a warning.
     assert not res.flexdyn.warnings
+
+
+@pytest.mark.parametrize("scheme", ["ed", "ep"])
+def test_a_load_pulse_inside_a_step_carries_its_impulse(scheme):
+    # A free 2 kg body pushed by 10 N for 50 ms, from t = 0.12 s, with fixed 0.1 s steps: the
+    # pulse lies inside the second step. A load acts over a step with its scale's mean there,
+    # so the momentum after it is the impulse, 0.5 N·s, to the quadrature's 1e-12 of a part
+    # (the average of the step's end values, both 0, carried nothing). Its momentum then
+    # stays; the work done is the kinetic energy (ED's jump dissipation has nothing to damp).
+    m = fd.Model("pushed body")
+    m.node("body", [0, 0, 0]).body("mass", "body", mass=2.0, inertia=[1.0] * 3)
+    m.force("push", node="body", value=[10.0, 0, 0], scale="t > 0.12 && t < 0.17 ? 1 : 0")
+    m.sensor("node_velocity", "v", node="body").sensor("energy", "energy")
+    res = fd.simulate(m, scheme=scheme, step_control="fixed", dt=0.1, t_end=0.4)
+    v = res["v.vx"].values
+    assert v[1] == 0.0
+    assert v[2:] == pytest.approx(0.25, rel=1e-10)
+    assert res["energy.kinetic"].values[-1] == pytest.approx(0.5 * 2.0 * 0.25**2, rel=1e-10)

@@ -30,7 +30,12 @@ impl FollowerLineLoad {
         let f = |t: f64| self.scale.as_ref().map_or(1.0, |s| s.value(t));
         match ctx.statics {
             Some(lf) => lf * f(ctx.t_f),
-            None => 0.5 * (f(ctx.t_i) + f(ctx.t_f)),
+            // The step's mean (module `time_function::mean`): a pulse between the step's
+            // ends carries its impulse.
+            None => self
+                .scale
+                .as_ref()
+                .map_or(1.0, |s| s.mean(ctx.t_i, ctx.t_f)),
         }
     }
 

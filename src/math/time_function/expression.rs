@@ -180,7 +180,40 @@ impl Expression {
         }
     }
 
+    /// Whether the expression branches: a comparison, logic, a conditional or a function with
+    /// a jump or kink (abs, sign, floor, ceil, round, min, max, clamp, step, smoothstep, mod).
+    pub fn has_branches(&self) -> bool {
+        self.program.iter().any(|op| branch_code(op, &[]).is_some())
+    }
+
+    /// A code of the branches the expression takes at `t`: of every comparison's and logical
+    /// operator's result, every conditional's choice, every kinked function's side and every
+    /// stepped function's level. Between two times with the same code the expression is one
+    /// smooth formula — unless a switch flipped there and back.
+    pub fn branches(&self, t: f64) -> u64 {
+        let mut code = 0xcbf2_9ce4_8422_2325u64; // FNV-1a
+        let mut stack = [Jet::default(); INLINE_STACK];
+        let mut heap;
+        let stack = if self.stack_depth <= INLINE_STACK {
+            &mut stack[..]
+        } else {
+            heap = vec![Jet::default(); self.stack_depth];
+            &mut heap[..]
+        };
+        self.run_with(t, stack, |op, args| {
+            if let Some(b) = branch_code(op, args) {
+                code = (code ^ b).wrapping_mul(0x0100_0000_01b3);
+            }
+        });
+        code
+    }
+
     fn run(&self, t: f64, stack: &mut [Jet]) -> Jet {
+        self.run_with(t, stack, |_, _| {})
+    }
+
+    /// Runs the program; `branch(op, operands)` sees every operator before it applies.
+    fn run_with(&self, t: f64, stack: &mut [Jet], mut branch: impl FnMut(&Op, &[Jet])) -> Jet {
         let mut top = 0usize;
         for op in &self.program {
             match *op {
@@ -193,19 +226,25 @@ impl Expression {
                     top += 1;
                 }
                 Op::Neg => stack[top - 1] = -stack[top - 1],
-                Op::Not => stack[top - 1] = truth(stack[top - 1].v == 0.0),
+                Op::Not => {
+                    branch(op, &stack[top - 1..top]);
+                    stack[top - 1] = truth(stack[top - 1].v == 0.0);
+                }
                 Op::Select => {
                     top -= 2;
+                    branch(op, &stack[top - 1..top]);
                     let (c, a, b) = (stack[top - 1], stack[top], stack[top + 1]);
                     stack[top - 1] = if c.v != 0.0 { a } else { b };
                 }
                 Op::Call(f) => {
                     let k = arity(f);
                     top -= k - 1;
+                    branch(op, &stack[top - 1..top - 1 + k]);
                     stack[top - 1] = call(f, &stack[top - 1..top - 1 + k]);
                 }
                 binary => {
                     top -= 1;
+                    branch(op, &stack[top - 1..=top]);
                     stack[top - 1] = apply(binary, stack[top - 1], stack[top]);
                 }
             }
@@ -228,6 +267,36 @@ fn stack_depth(program: &[Op]) -> usize {
         most = most.max(top);
     }
     most
+}
+
+/// The branch `op` takes on `args` (its operands), if it branches: comparisons and logic by
+/// their result, a conditional by its condition, kinked and stepped functions by their side
+/// or level. With no operands, only whether it branches (`Some(0)`).
+fn branch_code(op: &Op, args: &[Jet]) -> Option<u64> {
+    let side = |x: f64| (x > 0.0) as u64 + 2 * (x < 0.0) as u64;
+    let v = |k: usize| args.get(k).map_or(0.0, |j| j.v);
+    match op {
+        Op::Lt | Op::Le | Op::Gt | Op::Ge | Op::Eq | Op::Ne | Op::And | Op::Or => {
+            Some(if args.is_empty() {
+                0
+            } else {
+                apply(*op, args[0], args[1]).v as u64
+            })
+        }
+        Op::Not | Op::Select => Some((v(0) != 0.0) as u64),
+        Op::Call(f) => match f {
+            Function::Abs | Function::Sign | Function::Step => Some(side(v(0))),
+            Function::Floor => Some(v(0).floor().to_bits()),
+            Function::Ceil => Some(v(0).ceil().to_bits()),
+            Function::Round => Some(v(0).round().to_bits()),
+            Function::Min | Function::Max => Some(side(v(1) - v(0))),
+            Function::Clamp => Some(side(v(0) - v(1)) + 4 * side(v(0) - v(2))),
+            Function::Smoothstep => Some(side(v(2) - v(0)) + 4 * side(v(2) - v(1))),
+            Function::Mod => Some((v(0) / v(1)).floor().to_bits()),
+            _ => None,
+        },
+        _ => None,
+    }
 }
 
 fn truth(b: bool) -> Jet {

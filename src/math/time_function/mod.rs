@@ -8,6 +8,7 @@
 
 pub mod expression;
 pub mod jet;
+mod mean;
 
 use expression::Expression;
 use jet::Jet;
