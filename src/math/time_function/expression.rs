@@ -134,6 +134,8 @@ pub struct Expression {
     program: Vec<Op>,
     /// Most operands on the stack at once while evaluating `program`.
     stack_depth: usize,
+    /// Whether `program` branches (see [`Expression::has_branches`]).
+    branching: bool,
 }
 
 impl Expression {
@@ -160,9 +162,11 @@ impl Expression {
             ));
         }
         let stack_depth = stack_depth(&p.program);
+        let branching = p.program.iter().any(|op| branch_code(op, &[]).is_some());
         Ok(Expression {
             program: p.program,
             stack_depth,
+            branching,
         })
     }
 
@@ -183,7 +187,7 @@ impl Expression {
     /// Whether the expression branches: a comparison, logic, a conditional or a function with
     /// a jump or kink (abs, sign, floor, ceil, round, min, max, clamp, step, smoothstep, mod).
     pub fn has_branches(&self) -> bool {
-        self.program.iter().any(|op| branch_code(op, &[]).is_some())
+        self.branching
     }
 
     /// A code of the branches the expression takes at `t`: of every comparison's and logical
