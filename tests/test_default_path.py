@@ -491,3 +491,21 @@ def test_a_closed_frame_at_rest_starts_in_its_static_sag():
     assert sag < -5e-3
     # Both Newton-converged statics of the same equations; the run stays there to round-off.
     assert np.abs(res["mid.z"].values - sag).max() < 1e-9 * abs(sag)
+
+
+def test_a_free_carriage_on_a_cantilever_starts_in_the_sag_and_slides_down_it():
+    # The shuttle's carriage left free on its rail (no drive, no friction): the rigidified
+    # gate finds it at rest (the rigid rail is level), but once the rail sags it has no static
+    # equilibrium short of the tip, and the at-rest static solve failed (a warning, and the
+    # rail rang about its sag). The pre-load now holds the mechanism's free coordinates where
+    # they are: the rail starts in the sag of the carriage at η = 0.55 (the formula to 1e-3:
+    # shear and the beam's discretization), and the carriage then slides down the slope
+    # (7 mrad there: ~0.07 m/s², so ~1e-2 m in 0.5 s).
+    m = shuttle(t_end=0.5)
+    m.data["joints"][-1].pop("drive")
+    m.data["joints"][-1]["eta"] = 0.55
+    res = fd.simulate(m)
+    assert res.flexdyn.warnings == []
+    assert res["tip.z"].values[0] == pytest.approx(shuttle_static_tip(0.55), rel=1e-3)
+    slid = (res["pos.eta"].values[-1] - 0.55) * 2.0
+    assert 0.5e-2 < slid < 2e-2, slid

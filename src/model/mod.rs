@@ -679,6 +679,30 @@ impl Joint {
             Joint::Sliding(j) | Joint::SlidingScrew(j) | Joint::SlidingClamp(j) => &j.name,
         }
     }
+    /// Holds relative coordinate `k` (in the order of [`Joint::coordinates`]) at `value` by a
+    /// constant drive, without the spring, friction or end stops a held coordinate cannot use
+    /// (a sliding joint's given `eta` goes too); the joint's other coordinates keep theirs.
+    /// `false` for a screw joint, whose two coordinates are one motion (the caller holds
+    /// neither).
+    pub fn hold_coordinate(&mut self, k: usize, value: f64) -> bool {
+        let held = Some(TimeFunctionSpec::Constant(value));
+        match (self, k) {
+            (Joint::Revolute(j), 0) => (j.drive, j.spring) = (held, None),
+            (Joint::Universal(j), 0) => (j.drive1, j.spring1) = (held, None),
+            (Joint::Universal(j), 1) => (j.drive2, j.spring2) = (held, None),
+            (Joint::Prismatic(j), 0) => (j.drive, j.spring, j.friction) = (held, None, None),
+            (Joint::Cylindrical(j), 0) => {
+                (j.drive_delta, j.spring_delta, j.friction) = (held, None, None);
+            }
+            (Joint::Cylindrical(j), 1) => (j.drive_phi, j.spring_phi) = (held, None),
+            (Joint::Sliding(j) | Joint::SlidingScrew(j) | Joint::SlidingClamp(j), 0) => {
+                (j.drive, j.eta, j.spring) = (held, None, None);
+                (j.friction, j.end_stops) = (None, None);
+            }
+            _ => return false,
+        }
+        true
+    }
     /// The sliding joint's data, for the three sliding types.
     /// The joint's friction, for the kinds that can carry it.
     pub fn friction(&self) -> Option<&Friction> {

@@ -84,8 +84,32 @@ pub(super) fn preload_at_rest(
     } else {
         vec![(V3::zero(), V3::zero()); held.len()]
     };
-    preload_with(model, system, state, &accelerations, AT_REST_ELASTIC)?;
+    let held = holding_free_coordinates(model, system, state);
+    preload_with(&held, system, state, &accelerations, AT_REST_ELASTIC)?;
     Ok(true)
+}
+
+/// `model` with every joint coordinate no drive prescribes held where `state` has it: the
+/// at-rest pre-load strains the beams under the loads with the mechanism as the rigidified
+/// gate found it, at rest. A free collar on a cantilever has no static equilibrium once the
+/// beam sags (it would slide to the tip), nor a static restraint where the beam is level:
+/// its static solve failed, and the cantilever rang about its sag. Held, the beams start in
+/// their sag and the collar slides from there.
+fn holding_free_coordinates(model: &Model, system: &System, state: &State) -> Model {
+    let mut held = model.clone();
+    for info in &system.joint_info {
+        let Some(joint) = held.joints.iter_mut().find(|j| j.name() == info.name) else {
+            continue;
+        };
+        let sliding = system.joints[info.kernel].as_sliding();
+        for (k, c) in info.coords.iter().enumerate() {
+            if c.drive.is_none() {
+                let q = state.coords[c.coord];
+                joint.hold_coordinate(k, sliding.map_or(q, |sl| sl.arc.eta(q)));
+            }
+        }
+    }
+    held
 }
 
 /// A drive's acceleration (m/s² or rad/s²) below which it is at rest: round-off of an
