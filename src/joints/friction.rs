@@ -654,7 +654,15 @@ impl Friction {
                 Mode::Slip { direction: -d }
             }
         };
-        let fraction = if vi > 0.0 { vi / (vi - vf) } else { 0.0 };
+        let fraction = match vi / (vi - vf) {
+            _ if vi <= 0.0 => 0.0,
+            // Forward at both ends of a step whose slip went back, the rate turned twice
+            // inside it: no line through its ends places the stop, so the step is halved.
+            // (The line's zero past the step's end lengthened the step, and the same trial
+            // came back for ever: a collar ringing against its end stop on a spinning blade.)
+            x if !forward && x >= 1.0 => 0.5,
+            x => x,
+        };
         if forward && (fraction >= 0.9 || stopped) {
             // Stopped at the step's end, to a residual rate the stick's projection removes.
             Verdict::Holds {
@@ -968,6 +976,14 @@ mod tests {
                 next: Mode::Stick { hold: 1.38 },
                 ratio: None
             }
+        );
+        // Forward at both ends, but the step's slip went back: the rate turned twice inside
+        // the step, so it is halved (the rates' line, 0.8 → 0.5, reaches zero only at 2.67
+        // steps: a "shorter" step that was longer, tried again for ever).
+        end.coord_rates[0] = 0.5;
+        assert_eq!(
+            f.verdict(&start, &end, &step(3.0, 10.0, -1e-4), h),
+            Verdict::Shorten(0.5)
         );
         // Still sliding: nothing happens.
         end.coord_rates[0] = 0.5;

@@ -131,7 +131,8 @@ impl Simulation {
                             (fraction * h).max(floor)
                         }
                     }
-                    .max(floor);
+                    .max(floor)
+                    .min(h); // an event inside the step shortens it, never lengthens it
                 }
             }
         }
