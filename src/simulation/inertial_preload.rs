@@ -64,9 +64,9 @@ pub(super) fn preload_at_rest(
     settings: &SimulationSettings,
     state: &mut State,
 ) -> Result<bool, String> {
-    let held = rigid_accelerations(model, settings, state, Drives::Held)?;
+    let by_itself = rigid_accelerations(model, settings, state, Drives::Held)?;
     let l = system.length_ref;
-    let moves = held
+    let moves = by_itself
         .iter()
         .any(|(a, w_dot)| a.norm() + w_dot.norm() * l > AT_REST);
     if moves {
@@ -82,7 +82,7 @@ pub(super) fn preload_at_rest(
     let accelerations = if accelerating {
         rigid_accelerations(model, settings, state, Drives::AsGiven)?
     } else {
-        vec![(V3::zero(), V3::zero()); held.len()]
+        vec![(V3::zero(), V3::zero()); by_itself.len()]
     };
     let held = holding_free_coordinates(model, system, state);
     preload_with(&held, system, state, &accelerations, AT_REST_ELASTIC)?;
