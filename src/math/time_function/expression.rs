@@ -177,11 +177,7 @@ impl Expression {
 
     /// Value, rate and acceleration at `t`.
     pub fn eval(&self, t: f64) -> Jet {
-        if self.stack_depth <= INLINE_STACK {
-            self.run(t, &mut [Jet::default(); INLINE_STACK])
-        } else {
-            self.run(t, &mut vec![Jet::default(); self.stack_depth])
-        }
+        self.run_with(t, |_, _| {})
     }
 
     /// Whether the expression branches: a comparison, logic, a conditional or a function with
@@ -196,15 +192,7 @@ impl Expression {
     /// smooth formula — unless a switch flipped there and back.
     pub fn branches(&self, t: f64) -> u64 {
         let mut code = 0xcbf2_9ce4_8422_2325u64; // FNV-1a
-        let mut stack = [Jet::default(); INLINE_STACK];
-        let mut heap;
-        let stack = if self.stack_depth <= INLINE_STACK {
-            &mut stack[..]
-        } else {
-            heap = vec![Jet::default(); self.stack_depth];
-            &mut heap[..]
-        };
-        self.run_with(t, stack, |op, args| {
+        self.run_with(t, |op, args| {
             if let Some(b) = branch_code(op, args) {
                 code = (code ^ b).wrapping_mul(0x0100_0000_01b3);
             }
@@ -212,12 +200,17 @@ impl Expression {
         code
     }
 
-    fn run(&self, t: f64, stack: &mut [Jet]) -> Jet {
-        self.run_with(t, stack, |_, _| {})
+    /// Runs the program on a stack inline where it is shallow; `branch(op, operands)` sees
+    /// every operator before it applies.
+    fn run_with(&self, t: f64, branch: impl FnMut(&Op, &[Jet])) -> Jet {
+        if self.stack_depth <= INLINE_STACK {
+            self.run_on(t, &mut [Jet::default(); INLINE_STACK], branch)
+        } else {
+            self.run_on(t, &mut vec![Jet::default(); self.stack_depth], branch)
+        }
     }
 
-    /// Runs the program; `branch(op, operands)` sees every operator before it applies.
-    fn run_with(&self, t: f64, stack: &mut [Jet], mut branch: impl FnMut(&Op, &[Jet])) -> Jet {
+    fn run_on(&self, t: f64, stack: &mut [Jet], mut branch: impl FnMut(&Op, &[Jet])) -> Jet {
         let mut top = 0usize;
         for op in &self.program {
             match *op {
