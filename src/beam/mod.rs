@@ -3,6 +3,7 @@
 //! distributed loads that follow the sections (`line_load`).
 pub mod element;
 pub mod geometry;
+mod lanes;
 pub mod line_load;
 pub mod path;
 pub mod section;

@@ -15,6 +15,7 @@
 use super::element::{
     mat6_mul, BeamElement, PointStep, O_GROUPS, P_FROM, P_GROUPS, Q_GROUPS, U_FROM, U_GROUPS,
 };
+use super::lanes::{B3Lanes, LaneKind};
 use super::shape::MAX_NODES;
 use crate::elements::{v3, StepCtx, ValuePos};
 use crate::math::layout::Layout;
@@ -70,13 +71,13 @@ fn evaluate_body(
     // Block (a, b)'s entries into the element's row-major tangent.
     macro_rules! emit {
         () => {
-            |a: usize, b: usize, k: &[[B3; _]]| {
+            |a: usize, b: usize, k: &[[B3Lanes; _]]| {
                 for (rg, row) in k.iter().enumerate() {
                     for (yg, blk) in row.iter().enumerate() {
                         for (i, entries) in blk.0.iter().enumerate() {
                             let r = (per * a + 3 * rg + i) * n + per * b + 3 * yg;
                             for (&p, v) in pos[r..r + 3].iter().zip(entries) {
-                                vals[p as usize] += v;
+                                vals[p as usize] += v[b];
                             }
                         }
                     }
@@ -161,13 +162,13 @@ fn decoupled_surrogate_body(
         },
         ..*ctx
     };
-    let emit = |a: usize, b: usize, k: &[[B3; 2]]| {
+    let emit = |a: usize, b: usize, k: &[[B3Lanes; 2]]| {
         for (rg, row) in k.iter().enumerate() {
             for (yg, blk) in row.iter().enumerate() {
                 for i in 0..3 {
                     let r = (12 * a + 6 + 3 * rg + i) * n + 12 * b + 3 * yg;
                     for j in 0..3 {
-                        let v = blk.0[i][j];
+                        let v = blk.0[i][j][b];
                         vals[pos[r + j] as usize] -= (4.0 / 9.0) * v;
                         vals[pos[r + j + 6] as usize] += v / 9.0;
                     }
@@ -196,13 +197,13 @@ fn chained<
     yl: &[f64],
     res: Option<&mut [f64]>,
     active: [usize; NU],
-    mut emit: impl FnMut(usize, usize, &[[B3; NY]]),
+    mut emit: impl FnMut(usize, usize, &[[B3Lanes; NY]]),
 ) {
     let nn = el.nodes.len();
     let q = el.node_quantities::<f64>(ctx, yl);
     let mut u = [[V3::<f64>::zero(); U_GROUPS]; MAX_NODES];
-    // G[a][b][k][qg]: ∂u^a_active[k]/∂q^b accumulated over the points.
-    let mut gab = [[[[B3::zero(); NQ]; NU]; MAX_NODES]; MAX_NODES];
+    // G[a][k][qg], lane b: ∂u^a_active[k]/∂q^b accumulated over the points.
+    let mut gab = [[[B3Lanes::ZERO; NQ]; NU]; MAX_NODES];
     // Every point writes all of it.
     let mut jac = [[B3::zero(); NP]; NO];
     // The row quantities serve the residual and the end triad's moment term (ED, statics)
@@ -215,14 +216,12 @@ fn chained<
             el.add_row_quantities(g, &o, &mut u);
         }
         let pt = &el.points[g];
-        for a in 0..nn {
+        for (a, ga) in gab.iter_mut().enumerate().take(nn) {
             row_weights::<NU, NO, NP>(pt, a, &jac, &active, &mut w);
-            for b in 0..nn {
-                for (pg, &(qg, derivative)) in P_FROM.iter().enumerate().take(NP) {
-                    let c = if derivative { pt.dh[b] } else { pt.h[b] };
-                    for (gk, wk) in gab[a][b].iter_mut().zip(&w) {
-                        axpy(&mut gk[qg], c, &wk[pg]);
-                    }
+            for (pg, &(qg, derivative)) in P_FROM.iter().enumerate().take(NP) {
+                let c = if derivative { &pt.dh } else { &pt.h };
+                for (gk, wk) in ga.iter_mut().zip(&w) {
+                    gk[qg].add_scaled(&wk[pg], c);
                 }
             }
         }
@@ -231,9 +230,9 @@ fn chained<
         el.add_nodal_rows(ctx, yl, &u, rl);
     }
     let nodal = NodalMaps::<NQ, NY>::new(el, ctx, yl, &u);
-    for a in 0..nn {
+    for (a, ga) in gab.iter().enumerate().take(nn) {
+        let k = nodal.blocks::<NU>(a, ga, &active);
         for b in 0..nn {
-            let k = nodal.block::<NU>(a, b, &gab[a][b], &active);
             emit(a, b, &k);
         }
     }
@@ -575,13 +574,15 @@ fn velocity_columns<const NO: usize, const NP: usize>(
     }
 }
 
-/// The per-node maps around the chained point Jacobians: `∂q^b/∂y^b` on the column side,
-/// the nodal rotations on the row side, and the derivative of `R_fᵀ` on the diagonal.
-/// `NQ` node quantities and `NY` unknown groups per node, as in [`chained`].
+/// The per-node maps around the chained point Jacobians: `∂q^b/∂y^b` on the column side (all
+/// column nodes `b` side by side, see [`B3Lanes`]), the nodal rotations on the row side, and
+/// the derivative of `R_fᵀ` on the diagonal. `NQ` node quantities and `NY` unknown groups per
+/// node, as in [`chained`].
 struct NodalMaps<const NQ: usize, const NY: usize> {
-    /// `Q[b][qg][yg]`, with its kind (zero blocks skipped, multiples of the identity scaled).
-    q: [[[B3; NY]; NQ]; MAX_NODES],
-    q_kind: [[[BlockKind; NY]; NQ]; MAX_NODES],
+    /// `Q[qg][yg]`, lane b, with its kind (zero blocks skipped, multiples of the identity
+    /// scaled).
+    q: [[B3Lanes; NY]; NQ],
+    q_kind: [[LaneKind; NY]; NQ],
     /// `R_iᵀ`, `R_fᵀ` per node.
     ri_t: [B3; MAX_NODES],
     rf_t: [B3; MAX_NODES],
@@ -602,8 +603,8 @@ impl<const NQ: usize, const NY: usize> NodalMaps<NQ, NY> {
         let ed = ctx.ed();
         let per = if ed { 12 } else { 6 };
         let mut m = NodalMaps {
-            q: [[[B3::zero(); NY]; NQ]; MAX_NODES],
-            q_kind: [[[BlockKind::Zero; NY]; NQ]; MAX_NODES],
+            q: [[B3Lanes::ZERO; NY]; NQ],
+            q_kind: [[LaneKind::Zero; NY]; NQ],
             ri_t: [B3::identity(); MAX_NODES],
             rf_t: [B3::identity(); MAX_NODES],
             diag: [B3::zero(); MAX_NODES],
@@ -615,9 +616,9 @@ impl<const NQ: usize, const NY: usize> NodalMaps<NQ, NY> {
             let ri = ctx.state.nodes[node].r;
             let r = v3(y, per * b + 3);
             m.ri_t[b] = ri.transpose();
-            let q = &mut m.q[b];
-            q[0][0] = id;
-            q[1][1] = ri;
+            let q = &mut m.q;
+            q[0][0].set_lane(b, &id);
+            q[1][1].set_lane(b, &ri);
             // The end triad only where rows are taken through it (ED, statics).
             let (cay, t) = if m.at_f {
                 (cayley(&r), cayley_tangent(&r))
@@ -631,58 +632,58 @@ impl<const NQ: usize, const NY: usize> NodalMaps<NQ, NY> {
             if ed {
                 let inv_h = 1.0 / ctx.h;
                 let wj = v3(y, per * b + 9).scale_f(inv_h);
-                q[2][2] = id.scale_f(inv_h);
-                q[3][3] = ri.scale_f(inv_h);
-                q[4][0] = id.scale_f(2.0 * inv_h);
-                q[4][2] = id.scale_f(-inv_h);
+                q[2][2].set_lane(b, &id.scale_f(inv_h));
+                q[3][3].set_lane(b, &ri.scale_f(inv_h));
+                q[4][0].set_lane(b, &id.scale_f(2.0 * inv_h));
+                q[4][2].set_lane(b, &id.scale_f(-inv_h));
                 // ω_f = R_i (2r/h − cay(r) W_j); ∂(cay(r) W)/∂r = −cay(r) W̃ T(r).
-                q[5][1] = ri.mul_m(&(id.scale_f(2.0 * inv_h) + cay.mul_m(&wj.tilde()).mul_m(&t)));
-                q[5][3] = ri.mul_m(&cay).scale_f(-inv_h);
+                let q51 = ri.mul_m(&(id.scale_f(2.0 * inv_h) + cay.mul_m(&wj.tilde()).mul_m(&t)));
+                q[5][1].set_lane(b, &q51);
+                q[5][3].set_lane(b, &ri.mul_m(&cay).scale_f(-inv_h));
             }
-            for (kinds, q) in m.q_kind[b].iter_mut().zip(&m.q[b]) {
-                for (kind, blk) in kinds.iter_mut().zip(q) {
-                    *kind = BlockKind::of(blk);
-                }
+        }
+        for (kinds, q) in m.q_kind.iter_mut().zip(&m.q) {
+            for (kind, blk) in kinds.iter_mut().zip(q) {
+                *kind = LaneKind::of(blk, el.nodes.len());
             }
         }
         m
     }
 
-    /// The 3×3 blocks `[row group][unknown group]` of `∂rows^a/∂y^b` from `G = ∂u^a/∂q^b`
-    /// (`NY` groups: 2 for EP and statics, 4 for ED).
+    /// The 3×3 blocks `[row group][unknown group]` of `∂rows^a/∂y^b` for every column node `b`
+    /// (lane b) from `G = ∂u^a/∂q^b` (`NY` groups: 2 for EP and statics, 4 for ED).
     #[inline(always)]
-    fn block<const NU: usize>(
+    fn blocks<const NU: usize>(
         &self,
         a: usize,
-        b: usize,
-        g: &[[B3; NQ]; NU],
+        g: &[[B3Lanes; NQ]; NU],
         active: &[usize; NU],
-    ) -> [[B3; NY]; NY] {
-        // GQ[k][yg] = Σ_qg G[k][qg] Q^b[qg][yg], k the position in `active`.
-        let mut gq = [[B3::zero(); NY]; NU];
+    ) -> [[B3Lanes; NY]; NY] {
+        // GQ[k][yg] = Σ_qg G[k][qg] Q[qg][yg], k the position in `active`.
+        let mut gq = [[B3Lanes::ZERO; NY]; NU];
         for (gk, gqk) in g.iter().zip(gq.iter_mut()) {
             for (qg, gblk) in gk.iter().enumerate() {
                 for (yg, out) in gqk.iter_mut().enumerate() {
-                    match self.q_kind[b][qg][yg] {
-                        BlockKind::Zero => {}
-                        BlockKind::Identity(c) => axpy(out, c, gblk),
-                        BlockKind::Full => *out = *out + gblk.mul_m(&self.q[b][qg][yg]),
+                    match &self.q_kind[qg][yg] {
+                        LaneKind::Zero => {}
+                        LaneKind::Identity(c) => out.add_lane_scaled(c, gblk),
+                        LaneKind::Full => out.add_product(gblk, &self.q[qg][yg]),
                     }
                 }
             }
         }
         // Row quantity `ug`'s blocks (None: not active in this mode, zero).
         let row = |ug: usize| active.iter().position(|&u| u == ug).map(|k| &gq[k]);
-        let mut k = [[B3::zero(); NY]; NY];
+        let mut k = [[B3Lanes::ZERO; NY]; NY];
         k[0] = *row(0).expect("the f-force is always active");
         if let Some(u1) = row(1) {
             for (kb, u) in k[1].iter_mut().zip(u1) {
-                *kb = self.ri_t[a].mul_m(u);
+                *kb = B3Lanes::pre_mul(&self.ri_t[a], u);
             }
         }
         if let Some(u2) = row(2) {
             for (kb, u) in k[1].iter_mut().zip(u2) {
-                *kb = *kb + self.rf_t[a].mul_m(u);
+                *kb = kb.plus(&B3Lanes::pre_mul(&self.rf_t[a], u));
             }
         }
         if self.ed {
@@ -691,13 +692,16 @@ impl<const NQ: usize, const NY: usize> NodalMaps<NQ, NY> {
             };
             for yg in 0..NY {
                 k[2][yg] = u3[yg];
-                k[3][yg] = self.ri_t[a].mul_m(&u4[yg]) - self.rf_t[a].mul_m(&u2[yg]);
+                k[3][yg] = B3Lanes::pre_mul(&self.ri_t[a], &u4[yg])
+                    .minus(&B3Lanes::pre_mul(&self.rf_t[a], &u2[yg]));
             }
         }
-        if a == b && self.at_f {
-            k[1][1] = k[1][1] + self.diag[a];
+        if self.at_f {
+            let k11 = k[1][1].lane(a) + self.diag[a];
+            k[1][1].set_lane(a, &k11);
             if self.ed {
-                k[3][1] = k[3][1] - self.diag[a];
+                let k31 = k[3][1].lane(a) - self.diag[a];
+                k[3][1].set_lane(a, &k31);
             }
         }
         k
@@ -709,27 +713,6 @@ fn axpy(y: &mut B3, c: f64, x: &B3) {
     for i in 0..3 {
         for j in 0..3 {
             y.0[i][j] += c * x.0[i][j];
-        }
-    }
-}
-
-/// What multiplying by a 3×3 block takes: nothing, a scaling, or a matrix product.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum BlockKind {
-    Zero,
-    /// `c I`.
-    Identity(f64),
-    Full,
-}
-
-impl BlockKind {
-    fn of(m: &B3) -> Self {
-        let c = m.0[0][0];
-        let diagonal = (0..3).all(|i| (0..3).all(|j| i == j || m.0[i][j] == 0.0));
-        match (diagonal && m.0[1][1] == c && m.0[2][2] == c, c == 0.0) {
-            (true, true) => BlockKind::Zero,
-            (true, false) => BlockKind::Identity(c),
-            (false, _) => BlockKind::Full,
         }
     }
 }
