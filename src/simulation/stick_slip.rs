@@ -85,6 +85,7 @@ impl Simulation {
                 event: false,
             });
         }
+        let asked = h;
         let mut h = h;
         let mut event = false;
         let floor = self.settings.dt_min().max(MIN_EVENT_FRACTION * h);
@@ -112,11 +113,14 @@ impl Simulation {
                 }
                 Judged::Switch(switches) => {
                     for (k, mode) in switches {
-                        let f = &self.system.frictions[k];
-                        f.set_mode(&mut self.state, mode, None);
+                        self.switch_at_start(k, mode);
                     }
                     event = true;
                     (stop, short_of_stop) = (None, None);
+                    // The modes change at the start: the step asked for is taken in them, not
+                    // the sliver that located a stop there (whose forces, over so short a
+                    // step, are the start velocities' mismatch with the motion's over it).
+                    h = asked;
                 }
                 Judged::Shorten(fraction, k) => {
                     let rate = self.stop_rate(k, &end);
@@ -215,6 +219,31 @@ impl Simulation {
 }
 
 impl Simulation {
+    /// Friction `k` takes `mode` from the present state on. A slip that stops there sticks
+    /// from rest, as one whose stop ends a step does ([`Self::settle_stops`]): the state's
+    /// velocities are projected onto its stick row and the kinetic energy that takes is
+    /// booked at once as its work. Left with its residual slip rate, the stick step must stop
+    /// it within the step: with the shortest step allowed that takes a stick force of that
+    /// momentum over `dt_min`, hundreds of times μs N, and the joint breaks away again the
+    /// way it was slipping, step after step (EP's end velocities carry the midpoint rule's
+    /// ripple, so a slip under EP can end a step still moving while stopped in the mean).
+    fn switch_at_start(&mut self, k: usize, mode: Mode) {
+        let sys = &self.system;
+        let f = &sys.frictions[k];
+        let stops =
+            matches!(f.mode(&self.state), Mode::Slip { .. }) && matches!(mode, Mode::Stick { .. });
+        f.set_mode(&mut self.state, mode, None);
+        if !stops {
+            return;
+        }
+        let before = sys.kinetic_energy(&self.state);
+        if project_onto_stick(sys, &mut self.state, f.row) {
+            let work = sys.kinetic_energy(&self.state) - before;
+            self.totals.friction_work += work;
+            self.totals.per_friction_work[k] += work;
+        }
+    }
+
     /// Joints that stopped sliding at the end of this step stick from rest: the end
     /// velocities are projected (kinetic-energy weights) onto the stick row, every other row
     /// keeping its velocity residual. What that takes out — the residual slip rate of a stop
