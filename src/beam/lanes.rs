@@ -50,6 +50,33 @@ impl B3Lanes {
         }
     }
 
+    /// `x` weighted per lane: `c_b x` in lane `b`.
+    #[inline(always)]
+    pub fn scaled(x: &M3<f64>, c: &Lanes) -> B3Lanes {
+        let mut r = B3Lanes::ZERO;
+        for i in 0..3 {
+            for j in 0..3 {
+                for l in 0..MAX_NODES {
+                    r.0[i][j][l] = x.0[i][j] * c[l];
+                }
+            }
+        }
+        r
+    }
+
+    /// `self += c_b x_a` in lane `b`: lane `a` of `x` weighted per lane.
+    #[inline(always)]
+    pub fn add_scaled_lane(&mut self, x: &B3Lanes, a: usize, c: &Lanes) {
+        for i in 0..3 {
+            for j in 0..3 {
+                let (y, v) = (&mut self.0[i][j], x.0[i][j][a]);
+                for l in 0..MAX_NODES {
+                    y[l] += c[l] * v;
+                }
+            }
+        }
+    }
+
     /// `self += c_b g_b` in lane `b`.
     #[inline(always)]
     pub fn add_lane_scaled(&mut self, c: &Lanes, g: &B3Lanes) {
@@ -180,6 +207,9 @@ mod tests {
         y.add_scaled(&x, &c);
         let mut z = y0;
         z.add_lane_scaled(&c, &g);
+        let scaled = B3Lanes::scaled(&x, &c);
+        let mut from_lane = y0;
+        from_lane.add_scaled_lane(&g, 2, &c);
         let mut p = y0;
         p.add_product(&g, &q);
         let pre = B3Lanes::pre_mul(&a, &g);
@@ -193,6 +223,14 @@ mod tests {
                 }
             }
             assert_eq!(y.lane(b), want);
+            assert_eq!(scaled.lane(b), x.scale_f(c[b]));
+            let mut want = yb;
+            for i in 0..3 {
+                for j in 0..3 {
+                    want.0[i][j] += c[b] * g.lane(2).0[i][j];
+                }
+            }
+            assert_eq!(from_lane.lane(b), want);
             let mut want = yb;
             for i in 0..3 {
                 for j in 0..3 {

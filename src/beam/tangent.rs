@@ -15,7 +15,7 @@
 use super::element::{
     mat6_mul, BeamElement, PointStep, O_GROUPS, P_FROM, P_GROUPS, Q_GROUPS, U_FROM, U_GROUPS,
 };
-use super::lanes::{B3Lanes, LaneKind};
+use super::lanes::{B3Lanes, LaneKind, Lanes};
 use super::shape::MAX_NODES;
 use crate::elements::{v3, StepCtx, ValuePos};
 use crate::math::layout::Layout;
@@ -209,19 +209,19 @@ fn chained<
     // The row quantities serve the residual and the end triad's moment term (ED, statics)
     // only: ED's decoupled surrogate (EP's equations, no residual) skips them.
     let rows_needed = res.is_some() || ctx.ed() || ctx.is_static();
-    let mut w = [[B3::zero(); NP]; NU];
+    let mut w = [[B3Lanes::ZERO; NP]; NU];
     for g in 0..el.points.len() {
         let o = point_jacobian::<N, NO, NP>(el, ctx, g, &q, &mut jac);
         if rows_needed {
             el.add_row_quantities(g, &o, &mut u);
         }
         let pt = &el.points[g];
+        row_weights::<NU, NO, NP>(pt, &jac, &active, &mut w);
         for (a, ga) in gab.iter_mut().enumerate().take(nn) {
-            row_weights::<NU, NO, NP>(pt, a, &jac, &active, &mut w);
             for (pg, &(qg, derivative)) in P_FROM.iter().enumerate().take(NP) {
                 let c = if derivative { &pt.dh } else { &pt.h };
                 for (gk, wk) in ga.iter_mut().zip(&w) {
-                    gk[qg].add_scaled(&wk[pg], c);
+                    gk[qg].add_scaled_lane(&wk[pg], a, c);
                 }
             }
         }
@@ -238,37 +238,34 @@ fn chained<
     }
 }
 
-/// `W[k][pg] = ∂u^a_active[k]/∂p` at point `pt` into `w`: its Jacobian `jac` weighted by node
-/// `a`'s shape functions as the row quantities take them ([`U_FROM`]). Each row's first term
-/// is written, not added to zeros: `w` is reused across points and nodes, not zero-filled and
-/// returned by value (ED's exact tangent moved and cleared 3 KB per point and node, 4 % of it).
+/// `W[k][pg] = ∂u^a_active[k]/∂p` at point `pt` for every row node `a` (lane a) into `w`: its
+/// Jacobian `jac` weighted by the nodes' shape functions as the row quantities take them
+/// ([`U_FROM`]). Each row's first term is written, not added to zeros: `w` is reused across
+/// the points, not zero-filled and returned by value.
 #[inline(always)]
 fn row_weights<const NU: usize, const NO: usize, const NP: usize>(
     pt: &crate::beam::element::GaussPoint,
-    a: usize,
     jac: &[[B3; NP]; NO],
     active: &[usize; NU],
-    w: &mut [[B3; NP]; NU],
+    w: &mut [[B3Lanes; NP]; NU],
 ) {
     for (wk, &ug) in w.iter_mut().zip(active) {
         let mut written = false;
         // Outputs past `NO` are zero in this mode (EP: D only).
         for &(out, derivative, sign) in U_FROM[ug].iter().filter(|u| u.0 < NO) {
-            let c = sign * if derivative { pt.dh[a] } else { pt.h[a] };
-            if c == 0.0 {
-                continue;
-            }
+            let shape = if derivative { &pt.dh } else { &pt.h };
+            let c: Lanes = std::array::from_fn(|a| sign * shape[a]);
             for (wkp, jp) in wk.iter_mut().zip(&jac[out]) {
                 if written {
-                    axpy(wkp, c, jp);
+                    wkp.add_scaled(jp, &c);
                 } else {
-                    *wkp = jp.scale_f(c);
+                    *wkp = B3Lanes::scaled(jp, &c);
                 }
             }
             written = true;
         }
         if !written {
-            *wk = [B3::zero(); NP];
+            *wk = [B3Lanes::ZERO; NP];
         }
     }
 }
@@ -705,15 +702,6 @@ impl<const NQ: usize, const NY: usize> NodalMaps<NQ, NY> {
             }
         }
         k
-    }
-}
-
-#[inline(always)]
-fn axpy(y: &mut B3, c: f64, x: &B3) {
-    for i in 0..3 {
-        for j in 0..3 {
-            y.0[i][j] += c * x.0[i][j];
-        }
     }
 }
 
