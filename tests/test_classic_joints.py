@@ -223,6 +223,9 @@ def test_an_over_constrained_loop_is_reported_by_its_joints():
         fd.simulate(m, t_end=0.01, step_control="fixed", dt=1e-3)
     msg = str(e.value)
     assert "the constraints of `ja`, `jb`, `jc`, `jd` are not independent in the initial configuration" in msg
+    # Said once, with how many equations are redundant (a planar loop of four revolutes: 3),
+    # not once per dependence.
+    assert msg.count("not independent") == 1 and "(3 of their equations are redundant)" in msg
     assert "make one a universal or spherical joint" in msg
     # Releasing the redundancy (a spherical joint closes the loop instead, and a universal
     # stops the coupler spinning about itself) makes a valid mechanism.

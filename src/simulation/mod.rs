@@ -743,24 +743,35 @@ fn adopt_static_positions(system: &System, state: &mut State, solved: &State) {
 
 /// Over-constrained joints are a model error, reported by name: a dependence among the
 /// constraint rows in the initial configuration would only show up as a singular matrix.
+/// Dependences among the same joints are reported once, with their number (a screw jack's
+/// revolute, guide and thread over-constrain its loop by four equations, not four times).
 fn check_redundancy(model: &Model, system: &System) -> Result<(), ModelErrors> {
     use crate::model::ModelError;
     let deps = crate::system::redundancy::dependences(system, &system.initial);
-    if deps.is_empty() {
+    // (joints, whether a drive row takes part, how many dependences).
+    let mut groups: Vec<(Vec<String>, bool, usize)> = Vec::new();
+    for d in &deps {
+        // Drive rows are named `<joint>.drive_<coordinate>`.
+        let joint_of = |o: &str| o.split(".drive_").next().unwrap_or(o).to_string();
+        let mut joints: Vec<String> = Vec::new();
+        for o in &d.owners {
+            let j = joint_of(o);
+            if !joints.contains(&j) {
+                joints.push(j);
+            }
+        }
+        let drives = d.owners.iter().any(|o| o.contains(".drive_"));
+        match groups.iter_mut().find(|g| g.0 == joints && g.1 == drives) {
+            Some(g) => g.2 += 1,
+            None => groups.push((joints, drives, 1)),
+        }
+    }
+    if groups.is_empty() {
         return Ok(());
     }
-    let errors = deps
-        .iter()
-        .map(|d| {
-            // Drive rows are named `<joint>.drive_<coordinate>`.
-            let joint_of = |o: &str| o.split(".drive_").next().unwrap_or(o).to_string();
-            let mut joints: Vec<String> = Vec::new();
-            for o in &d.owners {
-                let j = joint_of(o);
-                if !joints.contains(&j) {
-                    joints.push(j);
-                }
-            }
+    let errors = groups
+        .into_iter()
+        .map(|(joints, drives, count)| {
             let path = joints
                 .iter()
                 .find_map(|j| model.joints.iter().position(|mj| mj.name() == j))
@@ -770,15 +781,18 @@ fn check_redundancy(model: &Model, system: &System) -> Result<(), ModelErrors> {
                 .map(|j| format!("`{j}`"))
                 .collect::<Vec<_>>()
                 .join(", ");
-            let drives = d.owners.iter().any(|o| o.contains(".drive_"));
             let hint = if drives {
                 "a drive prescribes a motion the joints already fix, or the joints over-constrain a loop"
             } else {
                 "an over-constrained closed loop (e.g. a planar loop of revolutes: make one a universal or spherical joint), or a configuration where the joints are singular"
             };
+            let how_many = match count {
+                1 => String::new(),
+                n => format!(" ({n} of their equations are redundant)"),
+            };
             ModelError::new(
                 path,
-                format!("the constraints of {names} are not independent in the initial configuration: {hint}; remove a redundant constraint"),
+                format!("the constraints of {names} are not independent in the initial configuration{how_many}: {hint}; remove a redundant constraint"),
             )
         })
         .collect();
