@@ -488,11 +488,11 @@ def test_a_collar_chattering_on_its_end_stop_under_ep_settles_each_stop():
     # ripple: a slip located to stop at a step's start still had a rate there (+7 mm/s while
     # stopping in the mean), the stick step of dt_min that followed had to stop it — a stick
     # force of 4.9 MN against μs N of 0.7 MN — and broke away the way it had slipped, for
-    # ever: the run failed at t = 2.009 s ("stick–slip modes did not settle"). A slip that
-    # stops at a step's start now sticks from rest (its velocities projected onto the stick
-    # row, as at a stop found at a step's end) and the step is then taken at the size asked
-    # for, not the sliver that located the stop (without the second, it failed at 2.216 s
-    # with every stick step a sliver).
+    # ever: this run failed at t = 1.396 s ("stick–slip modes did not settle"; 2.009 s with
+    # the session-40 model's sensors). A slip that stops at a step's start now sticks from
+    # rest (its velocities projected onto the stick row, as at a stop found at a step's end)
+    # and the step is then taken at the size asked for, not the sliver that located the stop
+    # (without the second, the session-40 model failed at 2.216 s, every stick step a sliver).
     res = fd.simulate(spinning_blade_with_free_collar("ep", t_end=2.25))
     assert res["time"].values[-1] == pytest.approx(2.25)
     stick = res["f.stick"].values
