@@ -165,6 +165,12 @@ simulation: {dt: 0.001}
         c.bench_function(&name, |b| {
             b.iter(|| el.evaluate(&ctx, &y, &mut res, Some((&mut vals, &pos))))
         });
+        // The residual alone: what each kept-factor Newton iteration pays per element.
+        let name = format!("beam_element/cubic_{scheme:?}_residual").to_lowercase();
+        let mut activity = vec![0.0; n];
+        c.bench_function(&name, |b| {
+            b.iter(|| el.residual_with_activity(&ctx, &y, &mut res, &mut activity))
+        });
     }
 }
 
