@@ -234,12 +234,18 @@ fn residual_pass<K: Kernel, const M: usize>(
         yl[l] = y[g];
     }
     k.residual(ctx, &yl[..n], &mut rl[..n]);
-    for (l, &g) in idx.iter().enumerate() {
-        res[g] += rl[l];
-    }
-    if let Some(activity) = activity {
-        for (l, &g) in idx.iter().enumerate() {
-            activity[g] += rl[l].abs();
+    // One pass over the indices for both sums.
+    match activity {
+        Some(activity) => {
+            for (&r, &g) in rl[..n].iter().zip(idx) {
+                res[g] += r;
+                activity[g] += r.abs();
+            }
+        }
+        None => {
+            for (&r, &g) in rl[..n].iter().zip(idx) {
+                res[g] += r;
+            }
         }
     }
 }
