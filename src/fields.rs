@@ -6,7 +6,6 @@
 
 use serde_json::{json, Value};
 
-use crate::math::rotation::log_map;
 use crate::math::vec3::M3;
 use crate::model::{Model, SimulationSettings};
 use crate::sensors::section_loads_at;
@@ -86,8 +85,13 @@ impl Fields {
 
     /// Appends one sample of the field columns.
     pub fn sample(&self, sys: &System, state: &State, out: &mut Vec<f64>) {
-        out.extend(state.nodes.iter().flat_map(|n| n.x.0));
-        out.extend(state.nodes.iter().flat_map(|n| quaternion(&n.r)));
+        out.reserve(self.width());
+        for n in &state.nodes {
+            out.extend_from_slice(&n.x.0);
+        }
+        for n in &state.nodes {
+            out.extend_from_slice(&quaternion(&n.r));
+        }
         let mut cached: Option<(usize, Vec<GaussValues>)> = None;
         let first = out.len();
         // Forces of every point, then moments: room for both halves first.
@@ -112,22 +116,49 @@ impl Fields {
     }
 }
 
-/// The unit quaternion `(w, x, y, z)` of a rotation, with `w ≥ 0`.
+/// The unit quaternion `(w, x, y, z)` of a rotation, with `w ≥ 0`. Shepperd's method: the
+/// largest of `4w², 4x², 4y², 4z²` (from the trace and the diagonal) by a square root, the
+/// other components from sums and differences of off-diagonal pairs — no trigonometry (the
+/// fields sample every node at every step).
 pub fn quaternion(rm: &M3<f64>) -> [f64; 4] {
-    let phi = log_map(rm);
-    let angle = phi.norm();
-    // sin(a/2)/a → 1/2 as a → 0.
-    let s = if angle < 1e-8 {
-        0.5
+    let m = &rm.0;
+    let trace = m[0][0] + m[1][1] + m[2][2];
+    let q = if trace >= m[0][0].max(m[1][1]).max(m[2][2]) {
+        let s = 2.0 * (1.0 + trace).sqrt(); // 4w
+        [
+            0.25 * s,
+            (m[2][1] - m[1][2]) / s,
+            (m[0][2] - m[2][0]) / s,
+            (m[1][0] - m[0][1]) / s,
+        ]
+    } else if m[0][0] >= m[1][1] && m[0][0] >= m[2][2] {
+        let s = 2.0 * (1.0 + m[0][0] - m[1][1] - m[2][2]).sqrt(); // 4x
+        [
+            (m[2][1] - m[1][2]) / s,
+            0.25 * s,
+            (m[0][1] + m[1][0]) / s,
+            (m[0][2] + m[2][0]) / s,
+        ]
+    } else if m[1][1] >= m[2][2] {
+        let s = 2.0 * (1.0 + m[1][1] - m[0][0] - m[2][2]).sqrt(); // 4y
+        [
+            (m[0][2] - m[2][0]) / s,
+            (m[0][1] + m[1][0]) / s,
+            0.25 * s,
+            (m[1][2] + m[2][1]) / s,
+        ]
     } else {
-        (0.5 * angle).sin() / angle
+        let s = 2.0 * (1.0 + m[2][2] - m[0][0] - m[1][1]).sqrt(); // 4z
+        [
+            (m[1][0] - m[0][1]) / s,
+            (m[0][2] + m[2][0]) / s,
+            (m[1][2] + m[2][1]) / s,
+            0.25 * s,
+        ]
     };
-    [
-        (0.5 * angle).cos(),
-        s * phi.0[0],
-        s * phi.0[1],
-        s * phi.0[2],
-    ]
+    // Unit to round-off, and the hemisphere w ≥ 0.
+    let scale = q[0].signum() / q.iter().map(|c| c * c).sum::<f64>().sqrt();
+    q.map(|c| c * scale)
 }
 
 /// Expected number of samples of a run: one per `output_dt`, else one per step of `dt`
@@ -266,21 +297,40 @@ mod tests {
 
     #[test]
     fn quaternions_rebuild_their_rotation_to_round_off_up_to_a_half_turn() {
-        // Angles from 0 (the series branch) through π (log_map's symmetric-part branch).
-        for (k, angle) in [0.0, 1e-10, 1e-3, 0.7, 2.0, 3.1, std::f64::consts::PI]
-            .into_iter()
-            .enumerate()
-        {
-            let axis = V3([1.0, -2.0 + k as f64, 0.5]);
-            let rm = exp_map(&axis.scale_f(angle / axis.norm()));
-            let q = quaternion(&rm);
-            let norm: f64 = q.iter().map(|c| c * c).sum();
-            assert!((norm - 1.0).abs() < 1e-15, "unit: {norm}");
-            assert!(q[0] >= 0.0);
-            let err = (matrix(q) - rm).max_abs();
-            // A few ε of the unit entries (log_map takes the axis near a half turn from R's
-            // symmetric part, through a square root).
-            assert!(err < 2e-15, "angle {angle}: {err:e}");
+        // Angles from 0 through π, about axes that make each of Shepperd's four branches the
+        // largest (w near no turn; x, y or z near a half turn about that axis).
+        let axes = [
+            V3([1.0, -2.0, 0.5]),
+            V3([1.0, 0.1, -0.2]),
+            V3([0.1, -1.0, 0.3]),
+            V3([-0.2, 0.3, 1.0]),
+        ];
+        for axis in axes {
+            for angle in [0.0, 1e-10, 1e-3, 0.7, 2.0, 3.1, std::f64::consts::PI] {
+                let rm = exp_map(&axis.scale_f(angle / axis.norm()));
+                let q = quaternion(&rm);
+                let norm: f64 = q.iter().map(|c| c * c).sum();
+                assert!((norm - 1.0).abs() < 1e-15, "unit: {norm}");
+                assert!(q[0] >= 0.0);
+                let err = (matrix(q) - rm).max_abs();
+                // A few ε of the unit entries.
+                assert!(err < 2e-15, "angle {angle} about {axis:?}: {err:e}");
+                // The rotation's own angle and axis: w = cos(φ/2), (x, y, z) = sin(φ/2) n.
+                let n = axis.scale_f(1.0 / axis.norm());
+                let (w, v) = ((0.5 * angle).cos(), n.scale_f((0.5 * angle).sin()));
+                let off_by = |sign: f64| {
+                    (q[0] - sign * w)
+                        .abs()
+                        .max((V3([q[1], q[2], q[3]]) - v.scale_f(sign)).norm())
+                };
+                // At a half turn w is round-off, and ±(0, n) are the same rotation.
+                let off = if angle == std::f64::consts::PI {
+                    off_by(1.0).min(off_by(-1.0))
+                } else {
+                    off_by(1.0)
+                };
+                assert!(off < 1e-15, "angle {angle} about {axis:?}: {off:e}");
+            }
         }
     }
 }
