@@ -6,6 +6,7 @@ use crate::math::rotation::{exp_map, log_map};
 use crate::math::vec3::{M3, V3};
 use crate::model::{Model, ModelError, ModelErrors, Sensor};
 use crate::state::State;
+use crate::system::energy_memo::EnergyMemo;
 use crate::system::System;
 
 #[derive(Clone, Debug)]
@@ -448,7 +449,14 @@ impl Channels {
     }
 
     /// Appends one sample of the state channels; step channels get a NaN placeholder.
-    pub fn sample(&self, sys: &System, state: &State, totals: &Totals, out: &mut Vec<f64>) {
+    pub fn sample(
+        &self,
+        sys: &System,
+        state: &State,
+        totals: &Totals,
+        energies: &EnergyMemo,
+        out: &mut Vec<f64>,
+    ) {
         let mut energy: Option<[f64; 9]> = None;
         for (src, k) in &self.sources {
             let v = match src {
@@ -510,7 +518,7 @@ impl Channels {
                     }
                 }
                 Source::Energy => {
-                    energy.get_or_insert_with(|| energy_channels(sys, state, totals))[*k]
+                    energy.get_or_insert_with(|| energy_channels(sys, state, totals, energies))[*k]
                 }
                 Source::Friction(i) => friction_channel(*i, *k, sys, state, totals),
             };
@@ -569,9 +577,8 @@ fn node_channel(src: &Source, k: usize, sys: &System, state: &State) -> f64 {
 /// The energy sensor's channels: kinetic, potential, total, the drives', external loads' and
 /// dampers' work, the energy friction dissipated, numerical dissipation, and the balance of
 /// them all against the initial energy (J).
-fn energy_channels(sys: &System, state: &State, totals: &Totals) -> [f64; 9] {
-    let t = sys.kinetic_energy(state);
-    let p = sys.potential_energy(state);
+fn energy_channels(sys: &System, state: &State, totals: &Totals, memo: &EnergyMemo) -> [f64; 9] {
+    let (t, p) = memo.energies(sys, state);
     let balance = t + p
         - totals.initial_energy
         - totals.drive_work

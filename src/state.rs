@@ -34,6 +34,16 @@ pub struct State {
 }
 
 impl State {
+    /// Becomes a copy of `other` in the buffers it has (derived `clone_from` reallocates).
+    pub fn copy_from(&mut self, other: &State) {
+        self.t = other.t;
+        self.nodes.clone_from(&other.nodes);
+        self.coords.clone_from(&other.coords);
+        self.coord_rates.clone_from(&other.coord_rates);
+        self.lambda.clone_from(&other.lambda);
+        self.history.clone_from(&other.history);
+    }
+
     /// No velocities (a static state).
     pub fn at_rest(&mut self) {
         for n in &mut self.nodes {

@@ -16,7 +16,7 @@ use super::section::Mat6;
 use super::shape::MAX_NODES;
 use crate::elements::{add3, v3, Kernel, StepCtx, ValuePos};
 use crate::math::layout::Layout;
-use crate::math::rotation::{cayley, cayley_rotate, rotate_material};
+use crate::math::rotation::{cayley, cayley_rotate};
 use crate::math::scalar::Real;
 use crate::math::vec3::{M3, V3};
 
@@ -651,7 +651,7 @@ impl BeamElement {
             let ri = M3::<T>::from_f64(&ctx.state.nodes[node].r);
             let r = v3(y, 12 * a + 3);
             rot_i[a] = ri;
-            rot_f[a] = rotate_material(&ctx.state.nodes[node].r, &r);
+            rot_f[a] = crate::math::rotation::rotate_material(&ctx.state.nodes[node].r, &r);
             vel_j[a] = (
                 v3(y, 12 * a + 6).scale_f(1.0 / h),
                 v3(y, 12 * a + 9).scale_f(1.0 / h),

@@ -19,6 +19,7 @@ use crate::math::vec3::V3;
 use crate::model::{Analysis, Model, ModelErrors, Scheme, SimulationSettings, StepControl};
 use crate::sensors::{Channels, Totals};
 use crate::state::State;
+use crate::system::energy_memo::EnergyMemo;
 use crate::system::System;
 
 /// One step's size and the mean velocity and spatial angular velocity of each node carrying
@@ -157,6 +158,8 @@ pub struct Simulation {
     load_factor: f64,
     /// The model's topology (JSON, see `fields::topology`) when the run records fields.
     pub topology: Option<String>,
+    /// The energies of the last state asked about (a step's end is the next one's start).
+    energy_memo: EnergyMemo,
 }
 
 impl Simulation {
@@ -225,6 +228,7 @@ impl Simulation {
             energy_floor,
             load_factor: 0.0,
             topology,
+            energy_memo: EnergyMemo::default(),
         };
         sim.h_next = sim.settings.dt;
         sim.energy_scale = sim.motion_energies(&sim.state).map(|e| e.max(energy_floor));
@@ -238,8 +242,13 @@ impl Simulation {
     fn record_start(&mut self, statics: bool) {
         if statics {
             let mut row = Vec::with_capacity(self.channels.len());
-            self.channels
-                .sample(&self.system, &self.state, &self.totals, &mut row);
+            self.channels.sample(
+                &self.system,
+                &self.state,
+                &self.totals,
+                &self.energy_memo,
+                &mut row,
+            );
             for &c in self.channels.step_channels() {
                 row[c] = 0.0;
             }
@@ -445,8 +454,13 @@ impl Simulation {
                     .max_constraint_violation
                     .max(report.max_violation);
                 let mut row = Vec::with_capacity(self.channels.len());
-                self.channels
-                    .sample(&self.system, &self.state, &self.totals, &mut row);
+                self.channels.sample(
+                    &self.system,
+                    &self.state,
+                    &self.totals,
+                    &self.energy_memo,
+                    &mut row,
+                );
                 let mut step = Vec::new();
                 self.channels.step_values(&report, &mut step);
                 for (&c, v) in self.channels.step_channels().iter().zip(step) {
@@ -469,7 +483,8 @@ impl Simulation {
     }
 
     pub fn energy(&self) -> f64 {
-        self.system.kinetic_energy(&self.state) + self.system.potential_energy(&self.state)
+        let (kinetic, potential) = self.energy_memo.energies(&self.system, &self.state);
+        kinetic + potential
     }
 
     /// Takes a converged step: energy bookkeeping, checks, the step's multipliers, and the

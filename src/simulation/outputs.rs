@@ -6,6 +6,7 @@ use super::Simulation;
 use crate::integrator::dense_output::state_between;
 use crate::integrator::StepReport;
 use crate::state::State;
+use crate::system::energy_memo::EnergyMemo;
 use crate::system::System;
 
 impl Simulation {
@@ -13,8 +14,13 @@ impl Simulation {
     /// final; its step channels (multipliers) wait in `pending` for the step after it.
     pub(super) fn record(&mut self) {
         let mut row = Vec::with_capacity(self.channels.len());
-        self.channels
-            .sample(&self.system, &self.state, &self.totals, &mut row);
+        self.channels.sample(
+            &self.system,
+            &self.state,
+            &self.totals,
+            &self.energy_memo,
+            &mut row,
+        );
         self.last_row = row.clone();
         self.emit(self.state.t, row);
     }
@@ -25,8 +31,13 @@ impl Simulation {
     /// ends — or the step's end when every step is recorded.
     pub(super) fn record_outputs(&mut self, start: &State) {
         let mut row_f = Vec::with_capacity(self.channels.len());
-        self.channels
-            .sample(&self.system, &self.state, &self.totals, &mut row_f);
+        self.channels.sample(
+            &self.system,
+            &self.state,
+            &self.totals,
+            &self.energy_memo,
+            &mut row_f,
+        );
         let (t_i, t_f) = (start.t, self.state.t);
         let row_i = std::mem::take(&mut self.last_row);
         match self.settings.output_dt {
@@ -65,7 +76,14 @@ impl Simulation {
         let mid = state_between(&self.system, start, &self.state, t);
         let mut row = Vec::with_capacity(self.channels.len());
         self.channels
-            .sample(&self.system, &mid, &self.totals, &mut row);
+            // Not the run's memo: it keeps the step's end for the next step's start.
+            .sample(
+                &self.system,
+                &mid,
+                &self.totals,
+                &EnergyMemo::default(),
+                &mut row,
+            );
         let w = (t - start.t) / (self.state.t - start.t);
         for &c in &self.step_end_channels {
             row[c] = row_i[c] + (row_f[c] - row_i[c]) * w;

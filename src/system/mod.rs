@@ -3,6 +3,7 @@
 //! sensors and checks read. [`crate::compile`] builds it from a model.
 
 mod border;
+pub mod energy_memo;
 pub mod paired;
 pub mod redundancy;
 pub mod refactor;
