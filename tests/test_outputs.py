@@ -1,6 +1,7 @@
 """Results files, streaming in chunks, failure diagnostics, the CLI, Newton's convergence."""
 
 import json
+from pathlib import Path
 import subprocess
 import sys
 
@@ -12,6 +13,8 @@ import flexdyn as fd
 import flexdyn.results
 
 from test_conservation import double_pendulum
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 
 
 def spun_up_body(max_halvings=2):
@@ -47,6 +50,32 @@ def test_output_dt_records_every_kth_step():
     res = fd.simulate(double_pendulum("ep", 0.01, 1.0), output_dt=0.05)
     np.testing.assert_allclose(np.diff(res.time.values), 0.05, rtol=1e-12)
     assert res.time.values[-1] == pytest.approx(1.0)
+
+
+def test_outputs_inside_steps_interpolate_the_books_between_the_step_ends():
+    """With `output_dt` a step's end is sampled only if an output falls in the step, and a step
+    with an output strictly inside it samples its start then, before its books change the
+    totals. Its bookkeeping channels (energies, the drive's work: exact at step ends) are the
+    linear interpolation between the step ends, which a run recording every step gives; its
+    outputs at step ends are that run's samples. Four-bar, fixed 10 ms steps, outputs every
+    25 ms: every other output inside a step, and steps with no output at all."""
+    model = fd.load(EXAMPLES / "four_bar.yaml")
+    model.simulation(step_control="fixed", dt=0.01, t_end=0.5, output_dt=None)
+    every = fd.simulate(model)
+    model.simulation(output_dt=0.025)
+    sparse = fd.simulate(model)
+    t = sparse.time.values
+    assert len(t) == 21
+    for channel in ["energy.kinetic", "energy.total", "energy.drive_work", "crank_drive.work"]:
+        expected = np.interp(t, every.time.values, every[channel].values)
+        scale = np.abs(every[channel].values).max()
+        # Interpolation weights differ from np.interp's by round-off only.
+        np.testing.assert_allclose(sparse[channel].values, expected, rtol=0, atol=1e-12 * scale)
+    at_step_ends = np.isclose(t / 0.01, np.round(t / 0.01), rtol=0, atol=1e-9)
+    assert at_step_ends.sum() == 11
+    for channel in ["rocker_angle.phi", "coupler_cm.x", "energy.potential"]:
+        picked = np.interp(t[at_step_ends], every.time.values, every[channel].values)
+        np.testing.assert_allclose(sparse[channel].values[at_step_ends], picked, rtol=0, atol=1e-14)
 
 
 def test_a_run_that_cannot_go_on_stops_with_a_diagnostic_and_keeps_its_steps(tmp_nc):

@@ -138,8 +138,9 @@ pub struct Simulation {
     step_index: u64,
     /// Index of the next requested output time (k·output_dt).
     output_index: u64,
-    /// State channels at the current state (the start of the next step).
-    last_row: Vec<f64>,
+    /// State channels at the current state (the start of the next step); None where no
+    /// output needed them (with `output_dt`, see `outputs.rs`).
+    last_row: Option<Vec<f64>>,
     /// Channels that are step-end bookkeeping, interpolated linearly between step ends.
     step_end_channels: Vec<usize>,
     /// Adaptive stepping: the size proposed for the next step; the last two steps' sizes and
@@ -219,7 +220,7 @@ impl Simulation {
             recent: Default::default(),
             step_index: 0,
             output_index: 1,
-            last_row: vec![],
+            last_row: None,
             step_end_channels: vec![],
             h_next: 0.0,
             recent_means: Default::default(),
@@ -492,6 +493,9 @@ impl Simulation {
     fn accept(&mut self, state: State, report: StepReport, h: f64) {
         let t_i = self.state.t;
         let e_i = self.energy();
+        // Before the step's books change the totals: the start's channels, if an output
+        // falls inside the step and they were not sampled.
+        self.sample_start_for_outputs(state.t);
         if self.settings.step_control == StepControl::Adaptive {
             let means = self.step_means(&state, h);
             if self.recent_means.len() == 2 {
