@@ -242,14 +242,7 @@ impl Simulation {
     /// run's initial state with its instant values.
     fn record_start(&mut self, statics: bool) {
         if statics {
-            let mut row = Vec::with_capacity(self.channels.len());
-            self.channels.sample(
-                &self.system,
-                &self.state,
-                &self.totals,
-                &self.energy_memo,
-                &mut row,
-            );
+            let mut row = self.sample_channels();
             for &c in self.channels.step_channels() {
                 row[c] = 0.0;
             }
@@ -454,14 +447,7 @@ impl Simulation {
                     .stats
                     .max_constraint_violation
                     .max(report.max_violation);
-                let mut row = Vec::with_capacity(self.channels.len());
-                self.channels.sample(
-                    &self.system,
-                    &self.state,
-                    &self.totals,
-                    &self.energy_memo,
-                    &mut row,
-                );
+                let mut row = self.sample_channels();
                 let mut step = Vec::new();
                 self.channels.step_values(&report, &mut step);
                 for (&c, v) in self.channels.step_channels().iter().zip(step) {

@@ -13,16 +13,18 @@ impl Simulation {
     /// Records a sample at the current time (the start of a run). Its state channels are
     /// final; its step channels (multipliers) wait in `pending` for the step after it.
     pub(super) fn record(&mut self) {
-        let mut row = Vec::with_capacity(self.channels.len());
-        self.channels.sample(
-            &self.system,
-            &self.state,
-            &self.totals,
-            &self.energy_memo,
-            &mut row,
-        );
+        let row = self.sample_channels();
         self.last_row = Some(row.clone());
         self.emit(self.state.t, row);
+    }
+
+    /// Every channel at the current state (step channels as placeholders).
+    pub(super) fn sample_channels(&self) -> Vec<f64> {
+        let mut row = Vec::with_capacity(self.channels.len());
+        let (sys, state, totals) = (&self.system, &self.state, &self.totals);
+        self.channels
+            .sample(sys, state, totals, &self.energy_memo, &mut row);
+        row
     }
 
     /// The next requested output time, with `output_dt`.
@@ -41,15 +43,7 @@ impl Simulation {
         let slack = 1e-9 * (t_f - t_i).max(1e-300);
         let inside = self.next_output_time().is_some_and(|t_o| t_o < t_f - slack);
         if inside && self.last_row.is_none() {
-            let mut row = Vec::with_capacity(self.channels.len());
-            self.channels.sample(
-                &self.system,
-                &self.state,
-                &self.totals,
-                &self.energy_memo,
-                &mut row,
-            );
-            self.last_row = Some(row);
+            self.last_row = Some(self.sample_channels());
         }
     }
 
@@ -64,14 +58,7 @@ impl Simulation {
             self.last_row = None;
             return;
         }
-        let mut row_f = Vec::with_capacity(self.channels.len());
-        self.channels.sample(
-            &self.system,
-            &self.state,
-            &self.totals,
-            &self.energy_memo,
-            &mut row_f,
-        );
+        let row_f = self.sample_channels();
         let row_i = self.last_row.take().unwrap_or_default();
         match self.settings.output_dt {
             None => self.emit(t_f, row_f.clone()),
