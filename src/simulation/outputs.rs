@@ -38,11 +38,12 @@ impl Simulation {
     /// step may start without them. A step that has an output time strictly inside it
     /// interpolates its step-end channels from its start: sampled here, on the start state
     /// (the current one) with the totals before the step's books — called before them.
+    /// Always sampled anew: a stick–slip projection between the steps changes the state and
+    /// the books at the start's instant, and the step runs from after it.
     pub(super) fn sample_start_for_outputs(&mut self, t_f: f64) {
         let t_i = self.state.t;
         let slack = 1e-9 * (t_f - t_i).max(1e-300);
-        let inside = self.next_output_time().is_some_and(|t_o| t_o < t_f - slack);
-        if inside && self.last_row.is_none() {
+        if self.next_output_time().is_some_and(|t_o| t_o < t_f - slack) {
             self.last_row = Some(self.sample_channels());
         }
     }
