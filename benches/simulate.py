@@ -57,7 +57,8 @@ def rotor(omega=40.0, blades=3):
     m = fd.Model("rotor", gravity=[0, 0, -9.81])
     m.node("hub", [0, 0, 0]).body("hub_mass", "hub", mass=20.0, inertia=[2, 2, 4])
     m.revolute("shaft", "ground", "hub", axis=[0, 0, 1], position=[0, 0, 0], drive=f"{omega}*t")
-    section = dict(ea=2.0e8, ga2=5e7, ga3=5e7, gj=2e4, ei2=4e4, ei3=8e5, m=8.0, i22=2e-3, i33=2e-2)
+    section = {"ea": 2.0e8, "ga2": 5e7, "ga3": 5e7, "gj": 2e4, "ei2": 4e4, "ei3": 8e5}
+    section |= {"m": 8.0, "i22": 2e-3, "i33": 2e-2}
     for k in range(blades):
         a = 2 * math.pi * k / blades
         direction = [math.cos(a), math.sin(a), 0.0]
@@ -94,7 +95,7 @@ def main():
             run(f"chain of {n}", chain(n), scheme=scheme, dt=1e-3, t_end=1.0)
     for scheme in ("ep", "ed"):
         run("rotor 40 rad/s, defaults", rotor(), scheme=scheme, t_end=1.0)
-        fixed = dict(dt=1e-3, t_end=0.5, step_control="fixed")
+        fixed = {"dt": 1e-3, "t_end": 0.5, "step_control": "fixed"}
         run("rotor 40 rad/s, 1 ms fixed", rotor(), scheme=scheme, **fixed)
     # The tilt-rotor's first 2 s (the whole 20 s: examples/vdtr/paper.py prints its cost).
     run("VDTR 2 s of 20", fd.load(ROOT / "examples" / "vdtr" / "vdtr.yaml"), t_end=2.0)

@@ -1,9 +1,9 @@
 """Results files, streaming in chunks, failure diagnostics, the CLI, Newton's convergence."""
 
 import json
-from pathlib import Path
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
