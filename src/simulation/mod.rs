@@ -339,6 +339,7 @@ impl Simulation {
         }
         self.state = state.clone();
         self.state.at_rest();
+        self.state_changed_between_steps();
         self.load_factor = 1.0;
         Ok(self.linearize())
     }

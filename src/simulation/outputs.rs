@@ -36,16 +36,23 @@ impl Simulation {
     /// With `output_dt`, the channels are sampled at a step's end only if an output time
     /// falls in the step (sensors and fields cost ~7–10 % of a short-step run), so the next
     /// step may start without them. A step that has an output time strictly inside it
-    /// interpolates its step-end channels from its start: sampled here, on the start state
-    /// (the current one) with the totals before the step's books — called before them.
-    /// Always sampled anew: a stick–slip projection between the steps changes the state and
-    /// the books at the start's instant, and the step runs from after it.
+    /// interpolates its step-end channels from its start: sampled here if they were not (or
+    /// no longer describe it), on the start state with the totals before the step's books —
+    /// called before them.
     pub(super) fn sample_start_for_outputs(&mut self, t_f: f64) {
         let t_i = self.state.t;
         let slack = 1e-9 * (t_f - t_i).max(1e-300);
-        if self.next_output_time().is_some_and(|t_o| t_o < t_f - slack) {
+        let inside = self.next_output_time().is_some_and(|t_o| t_o < t_f - slack);
+        if inside && self.last_row.is_none() {
             self.last_row = Some(self.sample_channels());
         }
+    }
+
+    /// The state changed between steps (a friction's mode set at a step's start and its
+    /// stop's projection, with their work booked; a state set for linearization): the last
+    /// step's end sample no longer describes the next step's start.
+    pub(super) fn state_changed_between_steps(&mut self) {
+        self.last_row = None;
     }
 
     /// After a step from `start` to the current state: records every requested output time

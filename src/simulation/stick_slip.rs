@@ -228,6 +228,7 @@ impl Simulation {
     /// way it was slipping, step after step (EP's end velocities carry the midpoint rule's
     /// ripple, so a slip under EP can end a step still moving while stopped in the mean).
     fn switch_at_start(&mut self, k: usize, mode: Mode) {
+        self.state_changed_between_steps();
         let sys = &self.system;
         let f = &sys.frictions[k];
         let stops =
