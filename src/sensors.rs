@@ -578,7 +578,8 @@ fn node_channel(src: &Source, k: usize, sys: &System, state: &State) -> f64 {
 /// dampers' work, the energy friction dissipated, numerical dissipation, and the balance of
 /// them all against the initial energy (J).
 fn energy_channels(sys: &System, state: &State, totals: &Totals, memo: &EnergyMemo) -> [f64; 9] {
-    let (t, p) = memo.energies(sys, state);
+    let energies = memo.energies(sys, state);
+    let (t, p) = (energies.kinetic(), energies.potential());
     let balance = t + p
         - totals.initial_energy
         - totals.drive_work

@@ -196,7 +196,10 @@ impl Simulation {
             channels.fields = Some(fields);
             topology = Some(crate::fields::topology(model, &system).to_string());
         }
-        let e0 = system.kinetic_energy(&state) + system.potential_energy(&state);
+        let e0 = {
+            let e = system.energies(&state);
+            e.kinetic() + e.potential()
+        };
         let totals = Totals {
             initial_energy: e0,
             per_drive_work: vec![0.0; system.drives.len()],
@@ -471,8 +474,8 @@ impl Simulation {
     }
 
     pub fn energy(&self) -> f64 {
-        let (kinetic, potential) = self.energy_memo.energies(&self.system, &self.state);
-        kinetic + potential
+        let energies = self.energy_memo.energies(&self.system, &self.state);
+        energies.kinetic() + energies.potential()
     }
 
     /// Takes a converged step: energy bookkeeping, checks, the step's multipliers, and the

@@ -4,6 +4,7 @@
 
 mod border;
 pub mod energy_memo;
+pub use energy_memo::Energies;
 pub mod paired;
 pub mod redundancy;
 pub mod refactor;
@@ -215,32 +216,28 @@ impl System {
         (p, h)
     }
 
-    /// The energy that measures a motion's size: kinetic, strain and spring energy (gravity's
-    /// potential is left out: its datum is arbitrary).
-    pub fn motion_energy(&self, s: &State) -> f64 {
+    /// Every part of a state's energy, each summed once (the strain energy over every Gauss
+    /// point, the costly part).
+    pub fn energies(&self, s: &State) -> Energies {
+        let [translational, rotational] = self.kinetic_energies(s);
+        let gravity: f64 = self
+            .inertias
+            .iter()
+            .map(|k| -k.mass * self.gravity.dot(&s.nodes[k.node].x))
+            .sum();
         let springs: f64 = self
             .springs
             .iter()
             .map(|sp| sp.law.energy(s.coords[sp.coord]))
             .sum();
         let strain: f64 = self.beams.iter().map(|b| b.strain_energy(s)).sum();
-        self.kinetic_energy(s) + springs + strain
-    }
-
-    /// Potential energy of gravity and springs.
-    pub fn potential_energy(&self, s: &State) -> f64 {
-        let grav: f64 = self
-            .inertias
-            .iter()
-            .map(|k| -k.mass * self.gravity.dot(&s.nodes[k.node].x))
-            .sum();
-        let spr: f64 = self
-            .springs
-            .iter()
-            .map(|sp| sp.law.energy(s.coords[sp.coord]))
-            .sum();
-        let strain: f64 = self.beams.iter().map(|b| b.strain_energy(s)).sum();
-        grav + spr + strain
+        Energies {
+            translational,
+            rotational,
+            gravity,
+            springs,
+            strain,
+        }
     }
 
     /// If `row` is a sliding joint's contact-coordinate equation (ζ's, or ED's jump) and its
