@@ -56,6 +56,20 @@ simulation: {{analysis: static}}
     np.testing.assert_allclose(from_file, built.frequency.values, rtol=1e-12)
 
 
+def test_poissons_ratio_gives_the_shear_modulus():
+    # ν = 0.3: G = E / 2(1 + ν) = 80.77 GPa; the section's stiffnesses equal those built
+    # from that G (the same arithmetic: to round-off).
+    shape = {"tube": {"diameter": D, "wall": WALL}}
+    with_nu = {"material": {"E": 2.1e11, "nu": 0.3, "density": 7850.0}, "shape": shape}
+    with_g = {"material": {"E": 2.1e11, "G": 2.1e11 / 2.6, "density": 7850.0}, "shape": shape}
+    a = fd.modes(cantilever(with_nu), 6, preload=False).frequency.values
+    b = fd.modes(cantilever(with_g), 6, preload=False).frequency.values
+    np.testing.assert_allclose(a, b, rtol=1e-12)
+    # … and G matters: the torsion mode moves with it (GJ), so the test would see a wrong G.
+    c = fd.modes(cantilever({**with_g, "material": {**with_g["material"], "G": 7e10}}), 6, preload=False)
+    assert np.max(np.abs(c.frequency.values / b - 1)) > 1e-3
+
+
 @pytest.mark.parametrize(
     "section, message",
     [
@@ -69,6 +83,18 @@ simulation: {{analysis: static}}
         ),
         ({"material": STEEL, "shape": {"hexagon": {"size": 0.01}}}, r"unknown variant `hexagon`"),
         ({"material": STEEL, "shape": {"rectangle": {"width": 0.01, "height": 0.0}}}, r"finite and > 0"),
+        (
+            {"material": {**STEEL, "nu": 0.3}, "shape": {"circle": {"diameter": 0.01}}},
+            r"beams\[0\]\.section: beam `tube`: material: give `G` or `nu`, not both",
+        ),
+        (
+            {"material": {"E": 2.1e11, "density": 7850.0}, "shape": {"circle": {"diameter": 0.01}}},
+            r"give the shear modulus `G` \(Pa\) or Poisson's ratio `nu`",
+        ),
+        (
+            {"material": {"E": 2.1e11, "nu": 0.7, "density": 7850.0}, "shape": {"circle": {"diameter": 0.01}}},
+            r"Poisson's ratio nu must lie in \(-1, 0.5\] \(got 0.7\)",
+        ),
     ],
 )
 def test_bad_materials_and_shapes_are_named(section, message):

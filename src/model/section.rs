@@ -47,18 +47,41 @@ pub struct Matrices {
     pub mass: [[f64; 6]; 6],
 }
 
-/// An isotropic material.
+/// An isotropic material: `E`, `density`, and either `G` or Poisson's ratio `nu`.
 #[derive(Serialize, Deserialize, JsonSchema, Clone, Copy, Debug, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialSpec {
     /// Young's modulus, Pa.
     #[serde(rename = "E")]
     pub e: f64,
-    /// Shear modulus, Pa.
-    #[serde(rename = "G")]
-    pub g: f64,
+    /// Shear modulus, Pa (or give `nu`).
+    #[serde(rename = "G", default, skip_serializing_if = "Option::is_none")]
+    pub g: Option<f64>,
+    /// Poisson's ratio, instead of `G`: `G = E / 2(1 + ν)`, −1 < ν ≤ 0.5.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nu: Option<f64>,
     /// Density, kg/m³.
     pub density: f64,
+}
+
+impl MaterialSpec {
+    /// The shear modulus, Pa: `G` as given, or from `E` and `nu`; an error says which of the
+    /// two to give when neither or both are.
+    pub fn shear_modulus(&self) -> Result<f64, String> {
+        match (self.g, self.nu) {
+            (Some(g), None) => Ok(g),
+            (None, Some(nu)) if nu > -1.0 && nu <= 0.5 => Ok(self.e / (2.0 * (1.0 + nu))),
+            (None, Some(nu)) => Err(format!(
+                "material: Poisson's ratio nu must lie in (-1, 0.5] (got {nu})"
+            )),
+            (None, None) => Err("material: give the shear modulus `G` (Pa) or Poisson's \
+                 ratio `nu`"
+                .into()),
+            (Some(_), Some(_)) => {
+                Err("material: give `G` or `nu`, not both (G = E / 2(1 + nu))".into())
+            }
+        }
+    }
 }
 
 /// A cross-section shape, dimensions in m; `width` runs along the section's axis 2 and
@@ -91,7 +114,7 @@ pub enum ShapeSpec {
     },
 }
 
-/// A section from a material and a shape: `{material: {E, G, density}, shape: {tube:
+/// A section from a material and a shape: `{material: {E, G (or nu), density}, shape: {tube:
 /// {diameter, wall}}}`.
 #[derive(Serialize, Deserialize, JsonSchema, Clone, Copy, Debug, PartialEq)]
 #[serde(deny_unknown_fields)]

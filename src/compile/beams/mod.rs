@@ -28,7 +28,8 @@ pub fn section_of(spec: &SectionSpec) -> Result<Section, String> {
 pub fn material_shape(ms: &MaterialShape) -> Result<SectionProperties, String> {
     use crate::beam::section_shapes::{properties, Material, Shape};
     let m = &ms.material;
-    if ![m.e, m.g, m.density]
+    let g = m.shear_modulus()?;
+    if ![m.e, g, m.density]
         .iter()
         .all(|v| v.is_finite() && *v > 0.0)
     {
@@ -62,7 +63,7 @@ pub fn material_shape(ms: &MaterialShape) -> Result<SectionProperties, String> {
     shape.check().map_err(|e| format!("shape: {e}"))?;
     let material = Material {
         e: m.e,
-        g: m.g,
+        g,
         rho: m.density,
     };
     Ok(properties(&material, &shape))
