@@ -467,6 +467,8 @@ impl PySimulation {
         d.set_item("pivoting_factorizations", s.pivoting_factorizations)?;
         d.set_item("orderings", s.orderings)?;
         d.set_item("border_refreshes", s.border_refreshes)?;
+        d.set_item("predicted_stops", s.predicted_stops)?;
+        d.set_item("constraint_checks", s.constraint_checks)?;
         d.set_item("max_constraint_violation", s.max_constraint_violation)?;
         d.set_item("max_constraint_work", s.max_constraint_work)?;
         d.set_item("max_energy_defect", s.max_energy_defect)?;

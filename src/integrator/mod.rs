@@ -10,6 +10,7 @@ mod ed_decoupled;
 mod kept_patterns;
 mod load_response;
 mod positions;
+mod predicted_stop;
 pub mod predictor;
 mod renewal;
 mod structure;
@@ -238,6 +239,10 @@ pub struct Integrator {
     exact_in_pairs: bool,
     /// Steps whose kept factors had their border refreshed.
     pub border_refreshes: usize,
+    /// Constraint rows evaluated alone after an update predicted to balance the forces
+    /// (`predicted_stop`), and of those, the steps they converged.
+    pub constraint_checks: usize,
+    pub predicted_stops: usize,
     /// The sliding windows the pattern in hand was built for, and the patterns built for
     /// others that were left (see [`kept_patterns`]).
     placement: kept_patterns::Placement,
@@ -435,6 +440,8 @@ impl Integrator {
             paired: None,
             exact_in_pairs: false,
             border_refreshes: 0,
+            constraint_checks: 0,
+            predicted_stops: 0,
             placement: kept_patterns::placement(sys),
             kept: Default::default(),
             patterns_taken_back: 0,
@@ -912,6 +919,7 @@ impl Integrator {
         self.factored_this_solve = false;
         self.decoupled_from = None;
         let force_floor = Measure::force_floor(sys, ctx);
+        let mut trend = predicted_stop::ForceTrend::default();
         for it in 0..=self.max_iter {
             let mut reuse = self.keep_factors(sys, ctx, it, converged_before);
             let tangent = (!reuse).then(|| self.fresh_factors(ctx));
@@ -946,6 +954,7 @@ impl Integrator {
             }
             let recent = [previous.as_ref(), before_previous.as_ref()];
             reuse = reuse && self.factors_still_pay(sys, ctx, &m, recent);
+            let predicted = trend.record(m.force_ratio(self.tol), reuse);
             self.note_fresh_decoupled_start(sys, &m, it, fresh_update);
             if best.as_ref().is_none_or(|b| m.force < b.force) {
                 best = Some(m);
@@ -960,7 +969,25 @@ impl Integrator {
             clamped = self.keep_contacts_in_windows(sys, ctx);
             self.check_iterate(sys, ctx)?;
             report.iterations += 1;
+            if let Some(forces) = predicted.filter(|_| clamped.is_none()) {
+                if let Some(c) = self.constraints_hold_after_update(sys, ctx, &m) {
+                    self.note_decoupled_rate(forces.max(c), it + 1);
+                    self.predicted_stops += 1;
+                    break;
+                }
+            }
         }
+        self.finish_solve(sys, ctx, report)
+    }
+
+    /// A converged solve's books: iterations, the decoupled factors' misses, the contacts'
+    /// check, what a solve costs.
+    fn finish_solve(
+        &mut self,
+        sys: &System,
+        ctx: &StepCtx,
+        report: StepReport,
+    ) -> Result<StepReport, StepFailure> {
         self.total_iterations += report.iterations;
         if self.factors == Factors::Decoupled && self.factored_this_solve {
             self.decoupled_misses = 0;

@@ -46,6 +46,11 @@ pub struct RunStats {
     /// Steps whose kept factors had their sliding contacts' rows and columns refreshed
     /// instead of a factorization (modified Newton with sliding joints).
     pub border_refreshes: usize,
+    /// Steps modified Newton ended on an update predicted to balance the forces, the
+    /// constraint rows alone evaluated after it (`integrator/predicted_stop.rs`), and the
+    /// constraint-only evaluations made (the others found the constraints not yet holding).
+    pub predicted_stops: usize,
+    pub constraint_checks: usize,
     pub max_constraint_violation: f64,
     pub max_constraint_work: f64,
     /// Largest |ΔE − W_drive − W_ext − W_damp + D| of a step: the energy identity's defect.
@@ -82,6 +87,8 @@ impl Default for RunStats {
             factorizations: 0,
             exact_factorizations: 0,
             border_refreshes: 0,
+            predicted_stops: 0,
+            constraint_checks: 0,
             pivoting_factorizations: 0,
             orderings: 0,
             max_constraint_violation: 0.0,
@@ -620,6 +627,8 @@ impl Simulation {
         self.stats.residual_evaluations = self.integrator.residual_evaluations;
         self.stats.orderings = self.integrator.matrix.orderings;
         self.stats.border_refreshes = self.integrator.border_refreshes;
+        self.stats.predicted_stops = self.integrator.predicted_stops;
+        self.stats.constraint_checks = self.integrator.constraint_checks;
         self.stats.pattern_misses = self.integrator.pattern_misses;
         self.stats.pattern_rebuilds = self.integrator.pattern_rebuilds;
     }
