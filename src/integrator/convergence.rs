@@ -146,8 +146,12 @@ impl Measure {
     /// residual over its tolerance and the violation over the tight constraint tolerance
     /// (≤ 1: converged). Modified Newton's contraction rate is its ratio between iterates.
     pub fn distance(&self, sys: &System, tol: f64) -> f64 {
-        let c = self.constraint / self.constraint_tight(sys, tol).max(f64::MIN_POSITIVE);
-        self.force_ratio(tol).max(c)
+        self.force_ratio(tol).max(self.constraint_ratio(sys, tol))
+    }
+
+    /// The constraint violation over its tight tolerance (≤ 1: held).
+    pub fn constraint_ratio(&self, sys: &System, tol: f64) -> f64 {
+        self.constraint / self.constraint_tight(sys, tol).max(f64::MIN_POSITIVE)
     }
 
     /// Both conditions met (`previous`: the last iterate's measure).

@@ -954,7 +954,10 @@ impl Integrator {
             }
             let recent = [previous.as_ref(), before_previous.as_ref()];
             reuse = reuse && self.factors_still_pay(sys, ctx, &m, recent);
-            let predicted = trend.record(m.force_ratio(self.tol), reuse);
+            let (f, c) = (m.force_ratio(self.tol), m.constraint_ratio(sys, self.tol));
+            let predicted = trend
+                .record(f, c, reuse)
+                .filter(|_| predicted_stop::pays(sys));
             self.note_fresh_decoupled_start(sys, &m, it, fresh_update);
             if best.as_ref().is_none_or(|b| m.force < b.force) {
                 best = Some(m);

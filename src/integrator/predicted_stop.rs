@@ -6,8 +6,9 @@
 //! With kept factors Newton contracts linearly. Where the last two updates, both made with
 //! the factors kept now, each cut the force residual by at least `THETA_MAX`, the next update
 //! is predicted to leave it at θ times the present one, θ the slower of the two (Hairer &
-//! Wanner II, IV.8, on residuals). If that is within `PREDICTED_MAX` of the tolerance, the
-//! update is taken and then only the constraint rows are evaluated, by the kernels that own
+//! Wanner II, IV.8, on residuals). If that is within `PREDICTED_MAX` of the tolerance, and
+//! the constraints are predicted by their own rate to hold, the update is taken and then
+//! only the constraint rows are evaluated, by the kernels that own
 //! them (joints and drives: a small part of an assembly). The step has converged if they
 //! hold; otherwise Newton goes on with a full assembly.
 //!
@@ -30,48 +31,75 @@ const THETA_MAX: f64 = 0.25;
 /// The largest predicted force residual, in units of its tolerance, that stops Newton.
 const PREDICTED_MAX: f64 = 0.03;
 
-/// The force residuals of a solve's last two iterates, in units of their tolerance, and
-/// whether the update after each kept the factors.
+/// A solve's last two iterates: their force residuals and constraint violations, in units
+/// of their tolerances, and whether the update after each kept the factors.
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct ForceTrend {
-    last: [(f64, bool); 2],
+    last: [Iterate; 2],
     seen: usize,
 }
 
+#[derive(Clone, Copy, Debug, Default)]
+struct Iterate {
+    force: f64,
+    constraint: f64,
+    kept: bool,
+}
+
 impl ForceTrend {
-    /// Records an iterate's force residual (units of its tolerance) and whether its update
-    /// keeps the factors; returns the force residual that update is predicted to leave, if it
-    /// is small enough to stop on.
-    pub(super) fn record(&mut self, force_ratio: f64, kept: bool) -> Option<f64> {
-        let [(before_last, _), (last, last_kept)] = self.last;
-        self.last = [self.last[1], (force_ratio, kept)];
+    /// Records an iterate's force residual and constraint violation (units of their
+    /// tolerances) and whether its update keeps the factors; returns the force residual that
+    /// update is predicted to leave, if it is small enough to stop on and the constraints are
+    /// predicted to hold (so that checking them is not wasted: a failed check costs the
+    /// joints' evaluation on top of the assembly it was to save).
+    pub(super) fn record(&mut self, force: f64, constraint: f64, kept: bool) -> Option<f64> {
+        let [before_last, last] = self.last;
+        self.last = [
+            last,
+            Iterate {
+                force,
+                constraint,
+                kept,
+            },
+        ];
         self.seen += 1;
         // Both ratios come from updates with the factors kept now only if the last update
         // kept them too.
-        if !(kept && last_kept && self.seen >= 3) {
+        if !(kept && last.kept && self.seen >= 3) {
             return None;
         }
-        let theta = (force_ratio / last).max(last / before_last);
-        let predicted = force_ratio * theta;
-        (theta <= THETA_MAX && predicted <= PREDICTED_MAX).then_some(predicted)
+        let rate = |now: f64, last: f64, before: f64| (now / last).max(last / before);
+        let theta = rate(force, last.force, before_last.force);
+        let predicted = force * theta;
+        let constraints = if constraint <= 1.0 {
+            constraint
+        } else {
+            constraint * rate(constraint, last.constraint, before_last.constraint)
+        };
+        (theta <= THETA_MAX && predicted <= PREDICTED_MAX && constraints <= 1.0)
+            .then_some(predicted)
     }
 }
 
+/// Whether stopping on a prediction can pay in `sys`: its beam elements make a full
+/// assembly dear next to the joints' and drives' rows alone (in a model of rigid bodies the
+/// check costs about what it saves, and the heavy top ran 2–4 % slower with it). Frictions'
+/// rows switch between forces and constraints, so a model with them is never judged this
+/// way.
+pub(super) fn pays(sys: &System) -> bool {
+    !sys.beams.is_empty() && sys.frictions.is_empty()
+}
+
 impl Integrator {
-    /// After an update predicted to balance the forces: the distance to convergence of the
-    /// constraint rows (their violation over its tolerance, as judged against `full`, the
-    /// last fully assembled iterate's force scale) if they hold, None if not. Frictions'
-    /// rows switch between forces and constraints, so a model with them is never judged
-    /// this way.
+    /// After an update predicted to balance the forces: the constraint rows' violation over
+    /// its tolerance (judged against `full`, the last fully assembled iterate's scales) if
+    /// they hold, None if not.
     pub(super) fn constraints_hold_after_update(
         &mut self,
         sys: &System,
         ctx: &StepCtx,
         full: &Measure,
     ) -> Option<f64> {
-        if !sys.frictions.is_empty() {
-            return None;
-        }
         self.res.fill(0.0);
         self.activity.fill(0.0);
         let (y, res, activity) = (&self.y, &mut self.res, &mut self.activity);
@@ -82,11 +110,11 @@ impl Integrator {
             Kernel::residual_with_activity(k, ctx, y, res, activity);
         }
         self.constraint_checks += 1;
-        let mut m = Measure::of(sys, ctx, &self.res, &self.activity);
+        // The constraint rows of this residual, judged against the full iterate's scales.
+        let mut m = Measure::with_floor(sys, ctx, &self.res, &self.activity, full.force_floor);
         (m.force_scale, m.constraint_scale) = (full.force_scale, full.constraint_scale);
-        m.force = 0.0;
         m.constraints_hold(sys, self.tol, None)
-            .then(|| m.distance(sys, self.tol))
+            .then(|| m.constraint_ratio(sys, self.tol))
     }
 }
 
@@ -156,25 +184,45 @@ mod tests {
     fn a_stop_is_predicted_only_from_two_steady_contractions_with_the_kept_factors() {
         // 1e4 → 40 → 0.16: θ = 4e-3, the next update predicted to leave 6.4e-4.
         let mut trend = ForceTrend::default();
-        assert_eq!(trend.record(1e4, true), None);
-        assert_eq!(trend.record(40.0, true), None);
-        let predicted = trend.record(0.16, true).unwrap();
+        assert_eq!(trend.record(1e4, 0.0, true), None);
+        assert_eq!(trend.record(40.0, 0.0, true), None);
+        let predicted = trend.record(0.16, 0.0, true).unwrap();
         assert!((predicted - 0.16 * 4e-3).abs() < 1e-12);
         // The slower of the two contractions counts: 1e4 → 100 (θ 1e-2) → 0.9 (θ 9e-3).
         let mut trend = ForceTrend::default();
-        trend.record(1e4, true);
-        trend.record(100.0, true);
-        assert!((trend.record(0.9, true).unwrap() - 0.9 * 1e-2).abs() < 1e-12);
+        trend.record(1e4, 0.0, true);
+        trend.record(100.0, 0.0, true);
+        assert!((trend.record(0.9, 0.0, true).unwrap() - 0.9 * 1e-2).abs() < 1e-12);
         // Too far from balanced for the rate: 1e4 → 1e3 → 100 leaves a predicted 10.
         let mut trend = ForceTrend::default();
-        trend.record(1e4, true);
-        trend.record(1e3, true);
-        assert_eq!(trend.record(100.0, true), None);
+        trend.record(1e4, 0.0, true);
+        trend.record(1e3, 0.0, true);
+        assert_eq!(trend.record(100.0, 0.0, true), None);
         // A contraction slower than θ_max, however small the residual.
         let mut trend = ForceTrend::default();
-        trend.record(1e-1, true);
-        trend.record(3e-2, true);
-        assert_eq!(trend.record(1e-2, true), None);
+        trend.record(1e-1, 0.0, true);
+        trend.record(3e-2, 0.0, true);
+        assert_eq!(trend.record(1e-2, 0.0, true), None);
+    }
+
+    #[test]
+    fn constraints_predicted_not_to_hold_are_not_checked() {
+        // Forces steady (1e4 → 40 → 0.16) with the constraints at 2e5 → 99 → 3.8 tolerances:
+        // θ_C = 0.038 predicts 0.15, held — checked. At 2e5 → 2e4 → 2e3 (θ_C = 0.1) they
+        // would be left at 200: not checked.
+        let mut trend = ForceTrend::default();
+        trend.record(1e4, 2e5, true);
+        trend.record(40.0, 99.0, true);
+        assert!(trend.record(0.16, 3.8, true).is_some());
+        let mut trend = ForceTrend::default();
+        trend.record(1e4, 2e5, true);
+        trend.record(40.0, 2e4, true);
+        assert_eq!(trend.record(0.16, 2e3, true), None);
+        // Constraints holding already need no rate.
+        let mut trend = ForceTrend::default();
+        trend.record(1e4, 5.0, true);
+        trend.record(40.0, 9.0, true);
+        assert!(trend.record(0.16, 0.5, true).is_some());
     }
 
     #[test]
@@ -182,19 +230,19 @@ mod tests {
         // The update after the second iterate factored afresh (not kept): the first ratio
         // belongs to other factors, so the third iterate predicts nothing; the fourth does.
         let mut trend = ForceTrend::default();
-        trend.record(1e4, true);
-        trend.record(40.0, false);
-        assert_eq!(trend.record(0.16, true), None);
-        assert!(trend.record(6e-4, true).is_some());
+        trend.record(1e4, 0.0, true);
+        trend.record(40.0, 0.0, false);
+        assert_eq!(trend.record(0.16, 0.0, true), None);
+        assert!(trend.record(6e-4, 0.0, true).is_some());
         // An update that will factor afresh is not predicted from.
         let mut trend = ForceTrend::default();
-        trend.record(1e4, true);
-        trend.record(40.0, true);
-        assert_eq!(trend.record(0.16, false), None);
+        trend.record(1e4, 0.0, true);
+        trend.record(40.0, 0.0, true);
+        assert_eq!(trend.record(0.16, 0.0, false), None);
         // NaN or zero residuals predict nothing.
         let mut trend = ForceTrend::default();
-        trend.record(0.0, true);
-        trend.record(0.0, true);
-        assert_eq!(trend.record(0.0, true), None);
+        trend.record(0.0, 0.0, true);
+        trend.record(0.0, 0.0, true);
+        assert_eq!(trend.record(0.0, 0.0, true), None);
     }
 }
