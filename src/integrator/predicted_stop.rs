@@ -4,13 +4,13 @@
 //! off, and the fourth update's full assembly only confirmed them.
 //!
 //! With kept factors Newton contracts linearly. Where the last two updates, both made with
-//! the factors kept now, each cut the force residual by at least `THETA_MAX`, the next update
-//! is predicted to leave it at θ times the present one, θ the slower of the two (Hairer &
-//! Wanner II, IV.8, on residuals). If that is within `PREDICTED_MAX` of the tolerance, and
-//! the constraints are predicted by their own rate to hold, the update is taken and then
-//! only the constraint rows are evaluated, by the kernels that own
-//! them (joints and drives: a small part of an assembly). The step has converged if they
-//! hold; otherwise Newton goes on with a full assembly.
+//! the factors kept now, each left at most `THETA_MAX` (¼) of the force residual before
+//! them, the next update is predicted to leave θ times the present one, θ the slower of the
+//! two (Hairer & Wanner II, IV.8, on residuals). If that is within `PREDICTED_MAX` (3 %) of
+//! the tolerance, and the constraints are predicted by their own rate to hold, the update
+//! is taken and then only the constraint rows are evaluated, by the kernels that own them
+//! (joints and drives: a small part of an assembly in a model with beams). The step has
+//! converged if they hold; otherwise Newton goes on with a full assembly.
 //!
 //! So the constraints are verified at the end of the step. The forces are trusted to one
 //! update past an iterate whose forces contracted steadily, as they already are by the
