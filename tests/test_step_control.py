@@ -167,6 +167,10 @@ def test_modified_newton_reuses_factors_and_reaches_the_same_solution(scheme):
     assert mod["factorizations"] < 0.5 * full["factorizations"]
     trials = mod["steps"] + mod["rejected"]
     assert mod["newton_iterations"] <= mod["linear_solves"] <= mod["newton_iterations"] + trials
+    # Some steps end on an update predicted to balance the forces, their constraints
+    # checked alone (integrator/predicted_stop.rs) — still the same converged steps.
+    assert 0 < mod["predicted_stops"] <= mod["constraint_checks"], mod
+    assert full["predicted_stops"] == 0  # full Newton keeps no factors to predict from
     # Same converged steps: the energy agrees to the Newton tolerance.
     E = [r["E.total"].values for r in runs]
     assert np.max(np.abs(E[0] - E[1])) < 1e-8 * E[0][0]
