@@ -1,5 +1,6 @@
 //! The PyO3 module `flexdyn._core`: conversions and error mapping only.
 
+use crate::integrator::timings::Phase;
 use crate::model::{self, Scheme, StepControl};
 use crate::simulation::{SimError, Simulation};
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
@@ -477,6 +478,15 @@ impl PySimulation {
         d.set_item("unknowns", self.sim.system.layout.n_unknowns())?;
         // The energy the step-error indicator is never measured below (J).
         d.set_item("error_energy_floor", self.sim.energy_floor)?;
+        // Where the wall time went (s), if the settings asked (`simulation.timings`).
+        let t = &s.timings;
+        if t.enabled() {
+            for phase in Phase::ALL {
+                d.set_item(format!("time_{}_s", phase.name()), t.seconds(phase))?;
+            }
+            d.set_item("time_other_s", t.other())?;
+            d.set_item("time_core_s", t.total())?;
+        }
         Ok(d)
     }
     /// Residual norms of the Newton iterations of the last step.

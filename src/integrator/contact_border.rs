@@ -238,9 +238,12 @@ impl Integrator {
     /// pivot failed): the caller takes fresh ones. True, doing nothing, without a border to
     /// refresh.
     pub(super) fn refresh_contact_border(&mut self, sys: &System, ctx: &StepCtx) -> bool {
+        let started = self.timings.start();
         let before = self.matrix_border_refreshes();
         let served = self.refresh_border_of_factors(sys, ctx);
         self.border_refreshes += usize::from(self.matrix_border_refreshes() > before);
+        self.timings
+            .add(super::timings::Phase::ContactBorders, started);
         served
     }
 

@@ -14,6 +14,7 @@ mod predicted_stop;
 pub mod predictor;
 mod renewal;
 mod structure;
+pub mod timings;
 
 use contact_border::ContactBorder;
 use convergence::{inf_norm, Measure};
@@ -23,6 +24,7 @@ pub use load_response::LoadResponse;
 use positions::KernelPositions;
 use renewal::{KindStreak, Renewal};
 use structure::BlockStructure;
+use timings::{Phase, Timings};
 
 use crate::elements::{Kernel, StepCtx, ValuePos};
 use crate::math::layout::Layout;
@@ -249,6 +251,8 @@ pub struct Integrator {
     kept: kept_patterns::KeptPatterns,
     /// Pattern rebuilds that took back a kept pattern.
     pub patterns_taken_back: usize,
+    /// Wall time per phase, if `simulation.timings` asked for it.
+    pub timings: Timings,
 }
 
 /// A Newton matrix's pattern, each kernel's block positions in it and the block structure
@@ -306,6 +310,7 @@ impl Integrator {
         integ.increment_tol = settings.newton_increment_tol;
         integ.max_iter = settings.max_newton_iterations as usize;
         integ.modified_newton = settings.modified_newton;
+        integ.timings = Timings::new(settings.timings);
         integ.contact_border =
             ContactBorder::new(sys, &integ.matrix).filter(|_| settings.modified_newton);
         integ
@@ -319,6 +324,7 @@ impl Integrator {
     /// A pattern built for the same windows before is taken back as it was left (see
     /// [`kept_patterns`]); the one left is kept.
     pub fn rebuild_pattern(&mut self, sys: &System, h: f64) {
+        let started = self.timings.start();
         let placement = kept_patterns::placement(sys);
         let incoming = match self.kept.take(&placement) {
             Some(set) => {
@@ -339,6 +345,7 @@ impl Integrator {
         self.exact_in_pairs = false;
         self.served.restart();
         self.pattern_rebuilds += 1;
+        self.timings.add(Phase::Patterns, started);
     }
 
     /// The pattern of `sys` as its sliding windows are now placed (only kernels with new
@@ -445,6 +452,7 @@ impl Integrator {
             placement: kept_patterns::placement(sys),
             kept: Default::default(),
             patterns_taken_back: 0,
+            timings: Timings::default(),
         }
     }
 
@@ -460,6 +468,12 @@ impl Integrator {
     }
 
     fn predict_with(&mut self, sys: &System, state: &State, h: f64, second_order: bool) {
+        let started = self.timings.start();
+        self.predict_unknowns(sys, state, h, second_order);
+        self.timings.add(Phase::Predictor, started);
+    }
+
+    fn predict_unknowns(&mut self, sys: &System, state: &State, h: f64, second_order: bool) {
         let layout = sys.layout;
         let ed = layout.ed();
         let s = Self::scaling(sys, h);
@@ -582,6 +596,13 @@ impl Integrator {
     /// Factors the assembled tangent (symbolic analysis reused) as the exact matrix or as
     /// ED's decoupled system.
     pub fn factor_tangent(&mut self, factors: Factors) -> Result<(), String> {
+        let started = self.timings.start();
+        let factored = self.factor_kind(factors);
+        self.timings.add(Phase::Factorizations, started);
+        factored
+    }
+
+    fn factor_kind(&mut self, factors: Factors) -> Result<(), String> {
         let factors = self.available(factors);
         self.factored_for = None;
         // The tangent in hand is the kind asked for: the exact values, or the decoupled
@@ -646,6 +667,7 @@ impl Integrator {
     /// Applies the Newton update from the residual in `res` with the LU factors in hand (the
     /// update stays in `res`).
     fn back_substitute(&mut self) {
+        let started = self.timings.start();
         let turning = self.corotation.is_turning();
         if turning {
             self.corotation.to_factored(&mut self.res);
@@ -658,6 +680,7 @@ impl Integrator {
         for (y, d) in self.y.iter_mut().zip(self.res.iter()) {
             *y -= d;
         }
+        self.timings.add(Phase::Solves, started);
     }
 
     /// Assembles the residual (and the tangent values if asked) at the current unknowns,
@@ -675,6 +698,18 @@ impl Integrator {
     /// one, or for ED's decoupled system only the rows it reads ([`Kernel::evaluate_decoupled`]:
     /// the beams' and joints' from their EP stiffness).
     fn assemble_for(&mut self, sys: &System, ctx: &StepCtx, tangent: Option<Factors>) {
+        let started = self.timings.start();
+        self.assemble_kernels(sys, ctx, tangent);
+        let phase = if tangent.is_some() {
+            Phase::Tangents
+        } else {
+            Phase::Residuals
+        };
+        self.timings.add(phase, started);
+    }
+
+    /// [`Self::assemble_for`]'s work: every kernel's rows, and its tangent block if asked.
+    fn assemble_kernels(&mut self, sys: &System, ctx: &StepCtx, tangent: Option<Factors>) {
         let with_jacobian = tangent.is_some();
         let decoupled = tangent == Some(Factors::Decoupled);
         self.residual_evaluations += 1;
@@ -810,8 +845,10 @@ impl Integrator {
             self.predict_with(sys, state, h, false);
             result = self.newton(sys, &ctx);
         }
+        let started = self.timings.start();
         let (end, report) = self.commit(sys, &ctx, result?);
         self.trend.record(state, &end, h);
+        self.timings.add(Phase::StepEnds, started);
         Ok((end, report))
     }
 

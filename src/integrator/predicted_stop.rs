@@ -100,6 +100,7 @@ impl Integrator {
         ctx: &StepCtx,
         full: &Measure,
     ) -> Option<f64> {
+        let started = self.timings.start();
         self.res.fill(0.0);
         self.activity.fill(0.0);
         let (y, res, activity) = (&self.y, &mut self.res, &mut self.activity);
@@ -110,6 +111,7 @@ impl Integrator {
             Kernel::residual_with_activity(k, ctx, y, res, activity);
         }
         self.constraint_checks += 1;
+        self.timings.add(super::timings::Phase::Residuals, started);
         // The constraint rows of this residual, judged against the full iterate's scales.
         let mut m = Measure::with_floor(sys, ctx, &self.res, &self.activity, full.force_floor);
         (m.force_scale, m.constraint_scale) = (full.force_scale, full.constraint_scale);

@@ -1244,6 +1244,12 @@ pub struct SimulationSettings {
     pub max_growth: f64,
     #[serde(default = "default_max_shrink")]
     pub max_shrink: f64,
+    /// Record where the run's wall time goes, phase by phase of its steps (residuals,
+    /// tangents, factorizations, solves, …: `integrator::timings`), into the run statistics
+    /// (`time_<phase>_s`); `flexdyn run --timings` prints them. Off by default: the clock
+    /// reads cost ~1 % of the cheapest models' steps.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub timings: bool,
 }
 
 /// How the time step is chosen.
@@ -1328,6 +1334,7 @@ impl Default for SimulationSettings {
             dt_max: None,
             max_growth: default_max_growth(),
             max_shrink: default_max_shrink(),
+            timings: false,
         }
     }
 }

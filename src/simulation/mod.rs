@@ -13,6 +13,7 @@ mod velocity_projection;
 pub use initial_velocities::project_initial_velocities;
 
 use crate::elements::StepCtx;
+use crate::integrator::timings::{Phase, Timings};
 use crate::integrator::{Integrator, StepFailure, StepReport};
 use crate::joints::Joint;
 use crate::math::vec3::V3;
@@ -76,6 +77,8 @@ pub struct RunStats {
     pub dt_largest: f64,
     /// The last step taken.
     pub last_dt: f64,
+    /// Wall time per phase of the steps, if `simulation.timings` asked for it.
+    pub timings: Timings,
 }
 
 impl Default for RunStats {
@@ -88,6 +91,7 @@ impl Default for RunStats {
             exact_factorizations: 0,
             border_refreshes: 0,
             predicted_stops: 0,
+            timings: Timings::default(),
             constraint_checks: 0,
             pivoting_factorizations: 0,
             orderings: 0,
@@ -195,6 +199,8 @@ impl Simulation {
         } else {
             energy_scale::energy_floor(&system, &state, &mut integrator, &settings)
         };
+        // The run's timings start with its first step (that linearized step is set-up).
+        integrator.timings = Timings::new(settings.timings);
         let mut channels =
             Channels::new(model, &system).map_err(|e| SimError::Model(e.located(model)))?;
         let fields = crate::fields::Fields::new(&system);
@@ -277,7 +283,9 @@ impl Simulation {
         let start = self.load_factor;
         for k in 1..=n {
             let target = start + (1.0 - start) * k as f64 / n as f64;
+            let started = self.integrator.timings.start();
             let result = self.advance_load(target, 0);
+            self.integrator.timings.add_total(started);
             self.update_stats();
             result?;
         }
@@ -488,6 +496,13 @@ impl Simulation {
     /// Takes a converged step: energy bookkeeping, checks, the step's multipliers, and the
     /// samples whose times it covers.
     fn accept(&mut self, state: State, report: StepReport, h: f64) {
+        let started = self.integrator.timings.start();
+        self.accept_books(state, report, h);
+        self.integrator.timings.add(Phase::Outputs, started);
+    }
+
+    /// [`Self::accept`]'s work: the step's energy books, totals, statistics and outputs.
+    fn accept_books(&mut self, state: State, report: StepReport, h: f64) {
         let t_i = self.state.t;
         let e_i = self.energy();
         // Before the step's books change the totals: the start's channels, if an output
@@ -584,6 +599,19 @@ impl Simulation {
         t_target: f64,
         deadline: Option<std::time::Instant>,
     ) -> Result<(), StepFailure> {
+        let started = self.integrator.timings.start();
+        let advanced = self.advance_steps(t_target, deadline);
+        self.integrator.timings.add_total(started);
+        self.update_stats();
+        advanced
+    }
+
+    /// [`Self::advance_until`]'s steps and their samples (statistics updated by the caller).
+    fn advance_steps(
+        &mut self,
+        t_target: f64,
+        deadline: Option<std::time::Instant>,
+    ) -> Result<(), StepFailure> {
         let dt = self.settings.dt;
         let t_end = self.settings.t_end;
         let target = t_target.min(t_end);
@@ -599,7 +627,6 @@ impl Simulation {
             if let Err(e) = result {
                 // Keep every completed step: complete the pending samples and stop.
                 self.finalize_pending(true);
-                self.update_stats();
                 return Err(e);
             }
             self.step_index += 1;
@@ -614,7 +641,6 @@ impl Simulation {
             }
             self.finalize_pending(true);
         }
-        self.update_stats();
         Ok(())
     }
 
@@ -631,6 +657,7 @@ impl Simulation {
         self.stats.constraint_checks = self.integrator.constraint_checks;
         self.stats.pattern_misses = self.integrator.pattern_misses;
         self.stats.pattern_rebuilds = self.integrator.pattern_rebuilds;
+        self.stats.timings = self.integrator.timings.clone();
     }
 
     pub fn done(&self) -> bool {
