@@ -34,6 +34,39 @@ class FlexdynAccessor:
         return {k[len(prefix) :]: _plain(v) for k, v in self._ds.attrs.items() if k.startswith(prefix)}
 
     @property
+    def timings(self) -> dict[str, float]:
+        """Where the run's wall time went, s, by phase of its steps (`predictor`, `residuals`,
+        `tangents`, `factorizations`, `solves`, `contact_borders`, `step_ends`, `patterns`,
+        `outputs`, and `other`: step control, friction events, contact windows), and `core`,
+        their sum. Recorded only for a run with `simulation.timings: true` (`simulate(...,
+        timings=True)`, `flexdyn run --timings`); empty otherwise."""
+        stats = self.stats
+        return {
+            k[len("time_") : -len("_s")]: v
+            for k, v in stats.items()
+            if k.startswith("time_") and k.endswith("_s")
+        }
+
+    def timing_report(self) -> str:
+        """The run's [`timings`](#timings) as a table, the largest phase first, each with its
+        share of the core's time; the wall time around it includes writing the results."""
+        t = self.timings
+        if not t:
+            raise KeyError(
+                "this run recorded no timings: run it with `timings=True` (simulate), "
+                "`simulation: {timings: true}` (model file) or `flexdyn run --timings`"
+            )
+        core = t["core"]
+        lines = [
+            f"time in the solver core: {core:.3f} s (wall {self.stats.get('wall_time_s', float('nan')):.3f} s)"
+        ]
+        phases = sorted(((v, k) for k, v in t.items() if k != "core"), reverse=True)
+        for v, k in phases:
+            share = 100.0 * v / core if core > 0 else 0.0
+            lines.append(f"  {k.replace('_', ' '):<16}{v:9.3f} s {share:6.1f} %")
+        return "\n".join(lines)
+
+    @property
     def warnings(self) -> list[str]:
         """The run's warnings, one string each (empty if none)."""
         text = self._ds.attrs.get("warnings", "")

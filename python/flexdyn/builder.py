@@ -626,6 +626,7 @@ class Model:
         load_steps: int | None = None,
         preload: bool | None = None,
         inertial_preload: bool | None = None,
+        timings: bool | None = None,
     ) -> Model:
         """The `simulation:` settings (those given; the rest keep their defaults): analysis,
         scheme ("ed", the default, or "ep"), t_end and dt (s), output_dt (s); fields (record
@@ -636,7 +637,9 @@ class Model:
         run from the static equilibrium at t = 0; False: start the beams unstrained, as given;
         unset: a structure at rest under gravity or loads starts in its static equilibrium,
         anything else as given); inertial_preload (default True: beams that
-        drives moving at t = 0 carry along start strained by that motion's inertial loads)."""
+        drives moving at t = 0 carry along start strained by that motion's inertial loads);
+        timings (record where the run's wall time goes, phase by phase, in the statistics:
+        `ds.flexdyn.timing_report()`)."""
         given = {k: v for k, v in locals().items() if k != "self" and v is not None}
         self.data["simulation"].update(copy.deepcopy(given))
         return self

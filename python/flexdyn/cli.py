@@ -92,6 +92,7 @@ def _run(args) -> int:
             step_control="fixed" if args.fixed_step else ("adaptive" if args.tolerance is not None else None),
             tolerance=args.tolerance,
             fields=args.fields,
+            timings=True if args.timings else None,
             out=args.output,
             progress=False if args.quiet else None,
         )
@@ -130,10 +131,12 @@ def _run(args) -> int:
                 "within the tolerance; a looser `tolerance` takes longer steps at the cost of "
                 "the spin's rate and phase"
             )
-        if args.output:
-            n = res.sizes["load_factor" if static else "time"]
-            fields = " and the full-field motion" if "node_position" in res else ""
-            print(f"wrote {n} samples of {len(_channel_names(res))} channels{fields} to {args.output}")
+    if args.timings:
+        print(res.flexdyn.timing_report())
+    if not args.quiet and args.output:
+        n = res.sizes["load_factor" if static else "time"]
+        fields = " and the full-field motion" if "node_position" in res else ""
+        print(f"wrote {n} samples of {len(_channel_names(res))} channels{fields} to {args.output}")
     return 0
 
 
@@ -441,6 +444,11 @@ def main(argv=None) -> int:
         default=None,
         help="record the full-field motion for view/animate/export (default: when its estimate, "
         "shown by `flexdyn info`, is at most 100 MB)",
+    )
+    r.add_argument(
+        "--timings",
+        action="store_true",
+        help="print where the run's time went, phase by phase (residuals, factorizations, solves, …)",
     )
     r.add_argument("-q", "--quiet", action="store_true")
     r.set_defaults(func=_run)

@@ -79,6 +79,7 @@ def simulate(
     step_control: str | None = None,
     tolerance: float | None = None,
     fields: bool | None = None,
+    timings: bool | None = None,
     out: str | Path | None = None,
     progress: bool | None = None,
     on_chunk=None,
@@ -90,7 +91,8 @@ def simulate(
     Keyword arguments override the model's `simulation` settings (steps are adaptive to
     `tolerance` by default, `dt` the first; `step_control="fixed"` keeps them at `dt`;
     `output_dt` records at exactly k·output_dt; `fields` records the full-field motion, see
-    `flexdyn.fields`). With `out`, samples go to
+    `flexdyn.fields`; `timings` records where the wall time goes, phase by phase, in the
+    statistics `time_<phase>_s`, see `timing_report`). With `out`, samples go to
     disk chunk by chunk and are not kept in memory: the returned dataset reads the file
     lazily, so memory stays flat however long the run. `on_chunk(times, values)` is called
     for every chunk (live plots, custom sinks). `progress` shows a progress bar (tqdm) once
@@ -112,6 +114,8 @@ def simulate(
     data["simulation"].update({k: _number(k, v) for k, v in overrides.items() if v is not None})
     if fields is not None:
         data["simulation"]["fields"] = bool(fields)
+    if timings is not None:
+        data["simulation"]["timings"] = bool(timings)
     if out is not None:
         _check_output_path(Path(out), model)
     sim = _core.Simulation(json.dumps(data))
