@@ -1,10 +1,12 @@
 """ED's cost per step against EP's at equal fixed step size (issue 17, item 2).
 
-    python benches/ed_vs_ep.py [--repeats 3] [--dt 1e-3] [--t-end 1.0] [--models a,b]
+    python benches/ed_vs_ep.py [--repeats 3] [--dt 1e-3] [--t-end 1.0] [--models a,b] [--phases]
 
 Runs each example with both schemes at the same fixed step and default Newton (modified
 Newton, kept factors), interleaved, and prints the median process CPU per step, the Newton
-iterations, factorizations and back-substitutions per step, and the ED/EP ratio.
+iterations, factorizations and back-substitutions per step, and the ED/EP ratio. With
+`--phases`, one more run per scheme with `timings` on (not among the timed ones: its clock
+reads cost ~1 %) shows where ED's extra cost per step sits, phase by phase.
 """
 
 import argparse
@@ -26,9 +28,9 @@ MODELS = (
 )
 
 
-def run(model: str, scheme: str, dt: float, t_end: float) -> tuple[float, dict]:
+def run(model: str, scheme: str, dt: float, t_end: float, timings: bool = False) -> tuple[float, dict]:
     m = fd.load(EXAMPLES / f"{model}.yaml")
-    m.simulation(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end)
+    m.simulation(scheme=scheme, step_control="fixed", dt=dt, t_end=t_end, timings=timings)
     start = time.process_time()
     res = fd.simulate(m)
     return time.process_time() - start, res.flexdyn.stats
@@ -40,6 +42,7 @@ def main() -> None:
     ap.add_argument("--dt", type=float, default=1e-3)
     ap.add_argument("--t-end", type=float, default=1.0)
     ap.add_argument("--models", default=",".join(MODELS), help="examples, comma-separated")
+    ap.add_argument("--phases", action="store_true", help="also ED's and EP's µs per step by phase")
     args = ap.parse_args()
     models = args.models.split(",")
     # Untimed: the process's first results pay xarray's one-time imports (0.2–0.5 s with dask
@@ -64,6 +67,27 @@ def main() -> None:
                 f"| {st['newton_iterations'] / n:.2f} | {st['factorizations'] / n:.2f} "
                 f"| {st['linear_solves'] / n:.2f} | {ratio} |"
             )
+    if args.phases:
+        for model in models:
+            print_phases(model, args.dt, args.t_end)
+
+
+def print_phases(model: str, dt: float, t_end: float) -> None:
+    """µs per step by phase (`simulation.timings`) under each scheme, and ED's excess."""
+    per_step = {}
+    for scheme in ("ep", "ed"):
+        _, st = run(model, scheme, dt, t_end, timings=True)
+        per_step[scheme] = {
+            k[len("time_") : -len("_s")]: 1e6 * v / st["steps"]
+            for k, v in st.items()
+            if k.startswith("time_") and k.endswith("_s")
+        }
+    print(f"\n{model}, h = {dt} s: µs per step by phase")
+    print("| phase | EP | ED | ED − EP |")
+    print("| --- | --- | --- | --- |")
+    ep, ed = per_step["ep"], per_step["ed"]
+    for k in sorted(ep, key=lambda k: ep[k] - ed[k]):
+        print(f"| {k.replace('_', ' ')} | {ep[k]:.1f} | {ed[k]:.1f} | {ed[k] - ep[k]:+.1f} |")
 
 
 if __name__ == "__main__":
