@@ -86,7 +86,8 @@ def print_phases(model: str, dt: float, t_end: float) -> None:
     print("| phase | EP | ED | ED − EP |")
     print("| --- | --- | --- | --- |")
     ep, ed = per_step["ep"], per_step["ed"]
-    for k in sorted(ep, key=lambda k: ep[k] - ed[k]):
+    phases = sorted((k for k in ep if k != "core"), key=lambda k: ep[k] - ed[k])
+    for k in [*phases, "core"]:
         print(f"| {k.replace('_', ' ')} | {ep[k]:.1f} | {ed[k]:.1f} | {ed[k] - ep[k]:+.1f} |")
 
 
