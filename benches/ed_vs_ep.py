@@ -6,7 +6,7 @@ Runs each example with both schemes at the same fixed step and default Newton (m
 Newton, kept factors), interleaved, and prints the median process CPU per step, the Newton
 iterations, factorizations and back-substitutions per step, and the ED/EP ratio. With
 `--phases`, one more run per scheme with `timings` on (not among the timed ones: its clock
-reads cost ~1 %) shows where ED's extra cost per step sits, phase by phase.
+reads cost up to 3 %) shows where ED's extra cost per step sits, phase by phase.
 """
 
 import argparse
