@@ -447,8 +447,17 @@ def test_a_structure_too_soft_to_start_in_its_sag_is_warned_of():
     # beam and the two ways out. `preload: false` asks for that start: no warning then.
     def floppy(preload=None):
         m = fd.Model("floppy", gravity=[0, 0, -9.81])
-        section = {"ea": 1e6, "ga2": 1e6, "ga3": 1e6, "gj": 5.0, "ei2": 5.0, "ei3": 5.0, "m": 1.0,
-                   "i22": 1e-4, "i33": 1e-4}
+        section = {
+            "ea": 1e6,
+            "ga2": 1e6,
+            "ga3": 1e6,
+            "gj": 5.0,
+            "ei2": 5.0,
+            "ei3": 5.0,
+            "m": 1.0,
+            "i22": 1e-4,
+            "i33": 1e-4,
+        }
         m.beam("strip", [0, 0, 0], [2.0, 0, 0], elements=4, section=section)
         m.clamp("root", "ground", "strip.0")
         m.sensor("node_displacement", "tip", node="strip.12")

@@ -92,7 +92,10 @@ def test_poissons_ratio_gives_the_shear_modulus():
             r"give the shear modulus `G` \(Pa\) or Poisson's ratio `nu`",
         ),
         (
-            {"material": {"E": 2.1e11, "nu": 0.7, "density": 7850.0}, "shape": {"circle": {"diameter": 0.01}}},
+            {
+                "material": {"E": 2.1e11, "nu": 0.7, "density": 7850.0},
+                "shape": {"circle": {"diameter": 0.01}},
+            },
             r"Poisson's ratio nu must lie in \(-1, 0.5\] \(got 0.7\)",
         ),
     ],
