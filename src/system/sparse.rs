@@ -676,14 +676,18 @@ mod tests {
         }
         m.factor().unwrap();
         assert_eq!((m.numeric_factorizations, m.refactorizations), (2, 1));
-        let mut x = b.clone();
+        solves_as_a_fresh_lu(&mut m, &b);
+    }
+
+    /// The factors in hand solve `m x = b` to round-off (a well-conditioned 30 × 30 system:
+    /// a few hundred operations), and as the same values factored with fresh pivots do.
+    fn solves_as_a_fresh_lu(m: &mut NewtonMatrix<f64>, b: &[f64]) {
+        let mut x = b.to_vec();
         m.solve(&mut x);
-        // A well-conditioned 30 × 30 system: round-off of a few hundred operations.
-        assert!(relative_residual(&m, &x, &b) < 1e-13);
-        // The same values factored with fresh pivots give the same solution.
+        assert!(relative_residual(m, &x, b) < 1e-13);
         m.order_columns();
         m.factor().unwrap();
-        let mut y = b.clone();
+        let mut y = b.to_vec();
         m.solve(&mut y);
         let diff = x
             .iter()
@@ -717,18 +721,7 @@ mod tests {
         assert!(zeros > 20, "{zeros}");
         m.factor().unwrap();
         assert_eq!(m.refactorizations, 1, "the kept pivots served");
-        let mut x = b.clone();
-        m.solve(&mut x);
-        assert!(relative_residual(&m, &x, &b) < 1e-13);
-        m.order_columns();
-        m.factor().unwrap();
-        let mut y = b.clone();
-        m.solve(&mut y);
-        let diff = x
-            .iter()
-            .zip(&y)
-            .fold(0.0f64, |d, (a, c)| d.max((a - c).abs()));
-        assert!(diff < 1e-12, "{diff}");
+        solves_as_a_fresh_lu(&mut m, &b);
     }
 
     #[test]
