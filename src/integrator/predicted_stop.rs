@@ -207,24 +207,29 @@ mod tests {
         assert_eq!(trend.record(1e-2, 0.0, true), None);
     }
 
+    /// A fresh trend's prediction at the last of `iterates` (force ratio, constraint ratio,
+    /// whether the update from it keeps the factors).
+    fn prediction(iterates: &[(f64, f64, bool)]) -> Option<f64> {
+        let mut trend = ForceTrend::default();
+        iterates
+            .iter()
+            .map(|&(f, c, kept)| trend.record(f, c, kept))
+            .last()
+            .flatten()
+    }
+
     #[test]
     fn constraints_predicted_not_to_hold_are_not_checked() {
         // Forces steady (1e4 → 40 → 0.16) with the constraints at 2e5 → 99 → 3.8 tolerances:
         // θ_C = 0.038 predicts 0.15, held — checked. At 2e5 → 2e4 → 2e3 (θ_C = 0.1) they
         // would be left at 200: not checked.
-        let mut trend = ForceTrend::default();
-        trend.record(1e4, 2e5, true);
-        trend.record(40.0, 99.0, true);
-        assert!(trend.record(0.16, 3.8, true).is_some());
-        let mut trend = ForceTrend::default();
-        trend.record(1e4, 2e5, true);
-        trend.record(40.0, 2e4, true);
-        assert_eq!(trend.record(0.16, 2e3, true), None);
+        assert!(prediction(&[(1e4, 2e5, true), (40.0, 99.0, true), (0.16, 3.8, true)]).is_some());
+        assert_eq!(
+            prediction(&[(1e4, 2e5, true), (40.0, 2e4, true), (0.16, 2e3, true)]),
+            None
+        );
         // Constraints holding already need no rate.
-        let mut trend = ForceTrend::default();
-        trend.record(1e4, 5.0, true);
-        trend.record(40.0, 9.0, true);
-        assert!(trend.record(0.16, 0.5, true).is_some());
+        assert!(prediction(&[(1e4, 5.0, true), (40.0, 9.0, true), (0.16, 0.5, true)]).is_some());
     }
 
     #[test]
@@ -237,14 +242,14 @@ mod tests {
         assert_eq!(trend.record(0.16, 0.0, true), None);
         assert!(trend.record(6e-4, 0.0, true).is_some());
         // An update that will factor afresh is not predicted from.
-        let mut trend = ForceTrend::default();
-        trend.record(1e4, 0.0, true);
-        trend.record(40.0, 0.0, true);
-        assert_eq!(trend.record(0.16, 0.0, false), None);
+        assert_eq!(
+            prediction(&[(1e4, 0.0, true), (40.0, 0.0, true), (0.16, 0.0, false)]),
+            None
+        );
         // NaN or zero residuals predict nothing.
-        let mut trend = ForceTrend::default();
-        trend.record(0.0, 0.0, true);
-        trend.record(0.0, 0.0, true);
-        assert_eq!(trend.record(0.0, 0.0, true), None);
+        assert_eq!(
+            prediction(&[(0.0, 0.0, true), (0.0, 0.0, true), (0.0, 0.0, true)]),
+            None
+        );
     }
 }
