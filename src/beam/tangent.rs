@@ -230,8 +230,9 @@ fn chained<
         el.add_nodal_rows(ctx, yl, &u, rl);
     }
     let nodal = NodalMaps::<NQ, NY>::new(el, ctx, yl, &u);
+    let mut k = [[B3Lanes::ZERO; NY]; NY];
     for (a, ga) in gab.iter().enumerate().take(nn) {
-        let k = nodal.blocks::<NU>(a, ga, &active);
+        nodal.blocks::<NU>(a, ga, &active, &mut k);
         for b in 0..nn {
             emit(a, b, &k);
         }
@@ -647,50 +648,56 @@ impl<const NQ: usize, const NY: usize> NodalMaps<NQ, NY> {
         m
     }
 
+    /// `GQ = Σ_qg G[k][qg] Q[qg][yg]` for row quantity `gk` and unknown group `yg`: one block
+    /// per column node, formed in registers (no zero-filled scratch array).
+    #[inline(always)]
+    fn through_q(&self, gk: &[B3Lanes; NQ], yg: usize) -> B3Lanes {
+        let mut out = B3Lanes::ZERO;
+        for (qg, gblk) in gk.iter().enumerate() {
+            match &self.q_kind[qg][yg] {
+                LaneKind::Zero => {}
+                LaneKind::Identity(c) => out.add_lane_scaled(c, gblk),
+                LaneKind::Full => out.add_product(gblk, &self.q[qg][yg]),
+            }
+        }
+        out
+    }
+
     /// The 3×3 blocks `[row group][unknown group]` of `∂rows^a/∂y^b` for every column node `b`
-    /// (lane b) from `G = ∂u^a/∂q^b` (`NY` groups: 2 for EP and statics, 4 for ED).
+    /// (lane b) from `G = ∂u^a/∂q^b` (`NY` groups: 2 for EP and statics, 4 for ED), written
+    /// over `k` (every block of it).
     #[inline(always)]
     fn blocks<const NU: usize>(
         &self,
         a: usize,
         g: &[[B3Lanes; NQ]; NU],
         active: &[usize; NU],
-    ) -> [[B3Lanes; NY]; NY] {
-        // GQ[k][yg] = Σ_qg G[k][qg] Q[qg][yg], k the position in `active`.
-        let mut gq = [[B3Lanes::ZERO; NY]; NU];
-        for (gk, gqk) in g.iter().zip(gq.iter_mut()) {
-            for (qg, gblk) in gk.iter().enumerate() {
-                for (yg, out) in gqk.iter_mut().enumerate() {
-                    match &self.q_kind[qg][yg] {
-                        LaneKind::Zero => {}
-                        LaneKind::Identity(c) => out.add_lane_scaled(c, gblk),
-                        LaneKind::Full => out.add_product(gblk, &self.q[qg][yg]),
-                    }
+        k: &mut [[B3Lanes; NY]; NY],
+    ) {
+        // Row quantity `ug`'s G (None: not active in this mode, zero).
+        let row = |ug: usize| active.iter().position(|&u| u == ug).map(|i| &g[i]);
+        let u0 = row(0).expect("the f-force is always active");
+        let (u1, u2) = (row(1), row(2));
+        for yg in 0..NY {
+            k[0][yg] = self.through_q(u0, yg);
+            // The f-moment's blocks through R_i (its i-half) and R_f (its f-half).
+            let mut f2 = B3Lanes::ZERO;
+            if let Some(u2) = u2 {
+                f2 = B3Lanes::pre_mul(&self.rf_t[a], &self.through_q(u2, yg));
+            }
+            k[1][yg] = match (u1, u2) {
+                (Some(u1), Some(_)) => {
+                    B3Lanes::pre_mul(&self.ri_t[a], &self.through_q(u1, yg)).plus(&f2)
                 }
-            }
-        }
-        // Row quantity `ug`'s blocks (None: not active in this mode, zero).
-        let row = |ug: usize| active.iter().position(|&u| u == ug).map(|k| &gq[k]);
-        let mut k = [[B3Lanes::ZERO; NY]; NY];
-        k[0] = *row(0).expect("the f-force is always active");
-        if let Some(u1) = row(1) {
-            for (kb, u) in k[1].iter_mut().zip(u1) {
-                *kb = B3Lanes::pre_mul(&self.ri_t[a], u);
-            }
-        }
-        if let Some(u2) = row(2) {
-            for (kb, u) in k[1].iter_mut().zip(u2) {
-                *kb = kb.plus(&B3Lanes::pre_mul(&self.rf_t[a], u));
-            }
-        }
-        if self.ed {
-            let (Some(u2), Some(u3), Some(u4)) = (row(2), row(3), row(4)) else {
-                unreachable!("ED chains every row quantity")
+                (Some(u1), None) => B3Lanes::pre_mul(&self.ri_t[a], &self.through_q(u1, yg)),
+                (None, _) => f2,
             };
-            for yg in 0..NY {
-                k[2][yg] = u3[yg];
-                k[3][yg] = B3Lanes::pre_mul(&self.ri_t[a], &u4[yg])
-                    .minus(&B3Lanes::pre_mul(&self.rf_t[a], &u2[yg]));
+            if self.ed {
+                let (Some(u3), Some(u4)) = (row(3), row(4)) else {
+                    unreachable!("ED chains every row quantity")
+                };
+                k[2][yg] = self.through_q(u3, yg);
+                k[3][yg] = B3Lanes::pre_mul(&self.ri_t[a], &self.through_q(u4, yg)).minus(&f2);
             }
         }
         if self.at_f {
@@ -701,7 +708,6 @@ impl<const NQ: usize, const NY: usize> NodalMaps<NQ, NY> {
                 k[3][1].set_lane(a, &k31);
             }
         }
-        k
     }
 }
 
