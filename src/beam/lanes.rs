@@ -77,6 +77,26 @@ impl B3Lanes {
         }
     }
 
+    /// `self += c_b x_a + d_b z_a` in lane `b`: [`Self::add_scaled_lane`] of `x` then of `z`
+    /// (the same arithmetic in the same order), with `self` loaded and stored once.
+    #[inline(always)]
+    pub fn add_two_scaled_lanes(
+        &mut self,
+        (x, c): (&B3Lanes, &Lanes),
+        (z, d): (&B3Lanes, &Lanes),
+        a: usize,
+    ) {
+        for i in 0..3 {
+            for j in 0..3 {
+                let (y, v, w) = (&mut self.0[i][j], x.0[i][j][a], z.0[i][j][a]);
+                for l in 0..MAX_NODES {
+                    let t = y[l] + c[l] * v;
+                    y[l] = t + d[l] * w;
+                }
+            }
+        }
+    }
+
     /// `self += c_b g_b` in lane `b`.
     #[inline(always)]
     pub fn add_lane_scaled(&mut self, c: &Lanes, g: &B3Lanes) {
@@ -210,6 +230,12 @@ mod tests {
         let scaled = B3Lanes::scaled(&x, &c);
         let mut from_lane = y0;
         from_lane.add_scaled_lane(&g, 2, &c);
+        let d = [-0.9, 4.1, 0.25, 7.0];
+        let (mut two, mut one_by_one) = (y0, y0);
+        two.add_two_scaled_lanes((&g, &c), (&q, &d), 1);
+        one_by_one.add_scaled_lane(&g, 1, &c);
+        one_by_one.add_scaled_lane(&q, 1, &d);
+        assert_eq!(two, one_by_one);
         let mut p = y0;
         p.add_product(&g, &q);
         let pre = B3Lanes::pre_mul(&a, &g);

@@ -218,12 +218,7 @@ fn chained<
         let pt = &el.points[g];
         row_weights::<NU, NO, NP>(pt, &jac, &active, &mut w);
         for (a, ga) in gab.iter_mut().enumerate().take(nn) {
-            for (pg, &(qg, derivative)) in P_FROM.iter().enumerate().take(NP) {
-                let c = if derivative { &pt.dh } else { &pt.h };
-                for (gk, wk) in ga.iter_mut().zip(&w) {
-                    gk[qg].add_scaled_lane(&wk[pg], a, c);
-                }
-            }
+            add_point_to_row_node::<NU, NQ, NP>(pt, &w, a, ga);
         }
     }
     if let Some(rl) = res {
@@ -235,6 +230,35 @@ fn chained<
         nodal.blocks::<NU>(a, ga, &active, &mut k);
         for b in 0..nn {
             emit(a, b, &k);
+        }
+    }
+}
+
+/// `G[k][qg] += Σ_pg W[k][pg] ∂p/∂q^b` in lane b for row node `a`: one point's share. The
+/// inputs of one node quantity (`ρ`, `ρ′` of `ρ`; [`P_FROM`] lists them side by side) go in
+/// one pass, so that each block of `G` is loaded and stored once per point.
+#[inline(always)]
+fn add_point_to_row_node<const NU: usize, const NQ: usize, const NP: usize>(
+    pt: &crate::beam::element::GaussPoint,
+    w: &[[B3Lanes; NP]; NU],
+    a: usize,
+    ga: &mut [[B3Lanes; NQ]; NU],
+) {
+    let mut pg = 0;
+    while pg < NP {
+        let (qg, derivative) = P_FROM[pg];
+        let c = if derivative { &pt.dh } else { &pt.h };
+        if pg + 1 < NP && P_FROM[pg + 1].0 == qg {
+            let d = if P_FROM[pg + 1].1 { &pt.dh } else { &pt.h };
+            for (gk, wk) in ga.iter_mut().zip(w) {
+                gk[qg].add_two_scaled_lanes((&wk[pg], c), (&wk[pg + 1], d), a);
+            }
+            pg += 2;
+        } else {
+            for (gk, wk) in ga.iter_mut().zip(w) {
+                gk[qg].add_scaled_lane(&wk[pg], a, c);
+            }
+            pg += 1;
         }
     }
 }

@@ -652,6 +652,13 @@ impl Integrator {
         &mut self.res
     }
 
+    /// The step's unknowns: the predictor's values, then each iteration's updates (benchmarks
+    /// restore a predicted state through it, so that a timed iteration does not include the
+    /// predictor, which runs once per step).
+    pub fn unknowns_mut(&mut self) -> &mut [f64] {
+        &mut self.y
+    }
+
     /// The update for the residual in `res` with the factors in hand, left in `res`
     /// (benchmarks).
     pub fn solve_residual(&mut self) {
