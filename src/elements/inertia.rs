@@ -173,29 +173,50 @@ impl Kernel for NodeInertia {
         }
         let h = ctx.h;
         let ni = &ctx.state.nodes[self.node];
-        let m = self.mass;
         let j = M3::<T>::from_f64(&self.inertia);
-        let dx = v3(y, 0);
-        let r = v3(y, 3);
-        let vi = V3::<T>::from_f64(ni.v);
         let wi = V3::<T>::from_f64(ni.w);
+        self.translational_rows(ctx, y, res);
+        let (ws, wf) = self.angular_velocities(ctx, y);
+        add3(res, 3, rotational_row(&j, &v3(y, 3), &wi, &wf, h));
+        if ctx.ed() {
+            let rj = (ws - wf).scale_f(h / 6.0);
+            add3(res, 9, rotational_row(&j, &rj, &wi, &ws, h));
+        }
+    }
+}
+
+impl NodeInertia {
+    /// The momentum rows of translation (f, and under ED j), which are linear:
+    /// `m (v_f − v_i)/h − m g` and `m (v_j − v_i)/h`.
+    #[inline(always)]
+    fn translational_rows<T: Real>(&self, ctx: &StepCtx, y: &[T], res: &mut [T]) {
+        let (h, m) = (ctx.h, self.mass);
+        let vi = V3::<T>::from_f64(ctx.state.nodes[self.node].v);
         // Velocities at f from Δ = h (V_start + V_f)/2, V_start = V_i (EP) or V_j (ED).
-        let (vs, ws) = if ctx.ed() {
-            (v3(y, 6).scale_f(1.0 / h), v3(y, 9).scale_f(1.0 / h))
+        let vs = if ctx.ed() {
+            v3(y, 6).scale_f(1.0 / h)
         } else {
-            (vi, wi)
+            vi
         };
-        let vf = dx.scale_f(2.0 / h) - vs;
-        let wf = r.scale_f(2.0 / h) - ws;
+        let vf = v3(y, 0).scale_f(2.0 / h) - vs;
         let g = V3::<T>::from_f64(ctx.gravity.scale_f(m));
         add3(res, 0, (vf - vi).scale_f(m / h) - g);
-        add3(res, 3, rotational_row(&j, &r, &wi, &wf, h));
         if ctx.ed() {
-            let (vj, wj) = (vs, ws);
-            add3(res, 6, (vj - vi).scale_f(m / h));
-            let rj = (wj - wf).scale_f(h / 6.0);
-            add3(res, 9, rotational_row(&j, &rj, &wi, &wj, h));
+            add3(res, 6, (vs - vi).scale_f(m / h));
         }
+    }
+
+    /// `(W_start, W_f)`: the material angular velocities the step starts from (`W_i` under
+    /// EP, `W_j = y_9/h` under ED) and ends at, `W_f = 2r/h − W_start`.
+    #[inline(always)]
+    fn angular_velocities<T: Real>(&self, ctx: &StepCtx, y: &[T]) -> (V3<T>, V3<T>) {
+        let h = ctx.h;
+        let ws = if ctx.ed() {
+            v3(y, 9).scale_f(1.0 / h)
+        } else {
+            V3::<T>::from_f64(ctx.state.nodes[self.node].w)
+        };
+        (ws, v3(y, 3).scale_f(2.0 / h) - ws)
     }
 }
 
@@ -216,35 +237,37 @@ impl NodeInertia {
     ) {
         let n = self.unknowns.len();
         let yl = y_local(self, y);
+        // The residual's rows, the rotational ones from the evaluations that also give
+        // their derivatives (the same arithmetic as `residual`).
         let mut rl = [0.0; 12];
-        self.residual(ctx, &yl[..n], &mut rl[..n]);
-        for (&g, r) in self.unknowns.iter().zip(&rl) {
-            res[g] += r;
-        }
+        self.translational_rows(ctx, &yl[..n], &mut rl[..n]);
         let h = ctx.h;
         let k = M3::<f64>::identity().scale_f(self.mass / (h * h));
-        let ni = &ctx.state.nodes[self.node];
-        let r = v3(&yl, 3);
+        let (wi, r) = (ctx.state.nodes[self.node].w, v3(&yl, 3));
+        let (ws, wf) = self.angular_velocities(ctx, &yl);
         if !ctx.ed() {
             self.put(vals, pos, 0, 0, &k.scale_f(2.0));
-            let wf = r.scale_f(2.0 / h) - ni.w;
-            let (_, d_rho, d_wb) = rotational_row_jacobian(&self.inertia, &r, &ni.w, &wf, h);
+            let (row, d_rho, d_wb) = rotational_row_jacobian(&self.inertia, &r, &wi, &wf, h);
+            add3(&mut rl, 3, row);
             self.put(vals, pos, 3, 3, &(d_rho + d_wb.scale_f(2.0 / h)));
+            self.add_rows(&rl[..n], res);
             return;
         }
         self.put(vals, pos, 6, 6, &k);
-        let y9 = v3(&yl, 9);
-        let wj = y9.scale_f(1.0 / h);
-        if !j_rows_only {
+        if j_rows_only {
+            add3(&mut rl, 3, rotational_row(&self.inertia, &r, &wi, &wf, h));
+        } else {
             self.put(vals, pos, 0, 0, &k.scale_f(2.0));
             self.put(vals, pos, 0, 6, &k.scale_f(-1.0));
-            let wf = r.scale_f(2.0 / h) - wj;
-            let (_, d_rho, d_wb) = rotational_row_jacobian(&self.inertia, &r, &ni.w, &wf, h);
+            let (row, d_rho, d_wb) = rotational_row_jacobian(&self.inertia, &r, &wi, &wf, h);
+            add3(&mut rl, 3, row);
             self.put(vals, pos, 3, 3, &(d_rho + d_wb.scale_f(2.0 / h)));
             self.put(vals, pos, 3, 9, &d_wb.scale_f(-1.0 / h));
         }
-        let rj = (y9 - r).scale_f(1.0 / 3.0);
-        let (_, d_rho, d_wb) = rotational_row_jacobian(&self.inertia, &rj, &ni.w, &wj, h);
+        let rj = (ws - wf).scale_f(h / 6.0);
+        let (row, d_rho, d_wb) = rotational_row_jacobian(&self.inertia, &rj, &wi, &ws, h);
+        add3(&mut rl, 9, row);
+        self.add_rows(&rl[..n], res);
         self.put(vals, pos, 9, 3, &d_rho.scale_f(-1.0 / 3.0));
         self.put(
             vals,
@@ -253,6 +276,16 @@ impl NodeInertia {
             9,
             &(d_rho.scale_f(1.0 / 3.0) + d_wb.scale_f(1.0 / h)),
         );
+    }
+}
+
+impl NodeInertia {
+    /// Adds the kernel's local rows `rl` to the global residual.
+    #[inline(always)]
+    fn add_rows(&self, rl: &[f64], res: &mut [f64]) {
+        for (&g, r) in self.unknowns.iter().zip(rl) {
+            res[g] += r;
+        }
     }
 }
 
