@@ -906,6 +906,25 @@ pub(crate) mod tests {
         el
     }
 
+    /// The fixture with a fully coupled sectional stiffness (stretch–bending, shear–torsion
+    /// and bending–bending terms, still positive definite): the tangent's general 3×3 blocks
+    /// of C, where the principal-axis fixture takes its diagonal ones.
+    pub(crate) fn coupled(mut el: BeamElement) -> BeamElement {
+        let couplings = [
+            ((0, 4), 30.0),
+            ((1, 3), 8.0),
+            ((4, 5), 5.0),
+            ((1, 2), 300.0),
+        ];
+        for p in &mut el.points {
+            for &((i, j), v) in &couplings {
+                p.stiffness[i][j] += v;
+                p.stiffness[j][i] += v;
+            }
+        }
+        el
+    }
+
     #[test]
     fn damping_forces_do_exactly_the_reported_negative_work_in_both_schemes() {
         for scheme in [Scheme::Ep, Scheme::Ed] {
@@ -1010,10 +1029,13 @@ pub(crate) mod tests {
             (Scheme::Ed, None),
             (Scheme::Ep, Some(0.6)),
         ] {
-            for (n, damp) in (2..=4).flat_map(|n| [(n, false), (n, true)]) {
+            let variants =
+                (2..=4).flat_map(|n| [(n, false, false), (n, true, false), (n, false, true)]);
+            for (n, damp, couple) in variants {
                 let (el, state, layout) = fixture(n, scheme);
                 // Structural damping acts in time steps only (statics ignore it).
                 let el = if damp { damped(el) } else { el };
+                let el = if couple { coupled(el) } else { el };
                 let c = StepCtx {
                     statics,
                     ..ctx(layout, &state)
@@ -1025,7 +1047,7 @@ pub(crate) mod tests {
                 // Same bound as the other kernels: FD truncation and round-off relative to |J|.
                 assert!(
                     e < 1e-7,
-                    "{scheme:?} statics={statics:?} n={n} damped={damp}: {e:e}"
+                    "{scheme:?} statics={statics:?} n={n} damped={damp} coupled={couple}: {e:e}"
                 );
             }
         }
