@@ -179,6 +179,7 @@ pub(super) enum LaneKind {
 
 impl LaneKind {
     /// The kind of `m` over its first `used` lanes.
+    #[inline(always)]
     pub fn of(m: &B3Lanes, used: usize) -> Self {
         let mut c = [0.0; MAX_NODES];
         for (l, cl) in c.iter_mut().enumerate().take(used) {
