@@ -443,7 +443,7 @@ fn closed_point_derivatives<const ND: usize, const NO: usize, const NP: usize>(
         let mut force = [half_force(&cb, 0, &mean), half_force(&cb, 1, &mean)];
         if let Some(db) = &db {
             for (half, f) in force.iter_mut().enumerate() {
-                *f = db[half][1].mul_add(&d_f[1][k], &db[half][0].mul_add(&d_f[0][k], f));
+                *f = *f + db[half][0].mul_m(&d_f[0][k]) + db[half][1].mul_m(&d_f[1][k]);
             }
         }
         jac[0][k] = ps.rm.mul_m(&force[0]);
@@ -486,56 +486,17 @@ fn closed_point_derivatives<const ND: usize, const NO: usize, const NP: usize>(
 /// The sectional forces' half `half` (force 0, moment 1) of `C ∂ε`, with `C` in 3×3
 /// blocks (see [`blocks`]) and `∂ε` by strain half.
 #[inline(always)]
-fn half_force(cb: &[[SectionBlock; 2]; 2], half: usize, e: &[B3; 2]) -> B3 {
-    cb[half][1].mul_add(&e[1], &cb[half][0].mul_add(&e[0], &B3::zero()))
+fn half_force(cb: &[[B3; 2]; 2], half: usize, e: &[B3; 2]) -> B3 {
+    cb[half][0].mul_m(&e[0]) + cb[half][1].mul_m(&e[1])
 }
 
-/// A 3×3 block of a sectional matrix with what multiplying by it takes: most sections are
-/// principal-axis ones (diagonal C, no coupling of stretch, shear, torsion and bending),
-/// whose off-diagonal blocks are zero and diagonal blocks diagonal, and a 3×3 product by a
-/// diagonal block is 9 multiplications, not 27 multiply-adds.
-#[derive(Clone, Copy, Debug)]
-enum SectionBlock {
-    Zero,
-    Diagonal(V3<f64>),
-    Full(B3),
-}
-
-impl SectionBlock {
-    /// `out + self · e`.
-    #[inline(always)]
-    fn mul_add(&self, e: &B3, out: &B3) -> B3 {
-        match self {
-            SectionBlock::Zero => *out,
-            SectionBlock::Diagonal(d) => {
-                let mut r = *out;
-                for i in 0..3 {
-                    for j in 0..3 {
-                        r.0[i][j] += d.0[i] * e.0[i][j];
-                    }
-                }
-                r
-            }
-            SectionBlock::Full(m) => *out + m.mul_m(e),
-        }
-    }
-}
-
-/// `a` times a 6×6 matrix, as 3×3 blocks `[[11, 12], [21, 22]]` of their kinds.
+/// `a` times a 6×6 matrix, as 3×3 blocks `[[11, 12], [21, 22]]`.
 #[inline(always)]
-fn blocks(m: &crate::beam::section::Mat6, a: f64) -> [[SectionBlock; 2]; 2] {
+fn blocks(m: &crate::beam::section::Mat6, a: f64) -> [[B3; 2]; 2] {
     let blk = |i: usize, j: usize| {
-        let b: B3 = M3(std::array::from_fn(|r| {
+        M3(std::array::from_fn(|r| {
             std::array::from_fn(|s| a * m[3 * i + r][3 * j + s])
-        }));
-        let off_diagonal_zero = (0..3).all(|r| (0..3).all(|s| r == s || b.0[r][s] == 0.0));
-        if !off_diagonal_zero {
-            SectionBlock::Full(b)
-        } else if (0..3).all(|r| b.0[r][r] == 0.0) {
-            SectionBlock::Zero
-        } else {
-            SectionBlock::Diagonal(V3([b.0[0][0], b.0[1][1], b.0[2][2]]))
-        }
+        }))
     };
     [[blk(0, 0), blk(0, 1)], [blk(1, 0), blk(1, 1)]]
 }
@@ -729,6 +690,8 @@ impl<const NQ: usize, const NY: usize> NodalMaps<NQ, NY> {
     /// The 3×3 blocks `[row group][unknown group]` of `∂rows^a/∂y^b` for every column node `b`
     /// (lane b) from `G = ∂u^a/∂q^b` (`NY` groups: 2 for EP and statics, 4 for ED), written
     /// over `k` (every block of it).
+    // `yg` indexes every row group of `k` and picks the column of `Q`.
+    #[allow(clippy::needless_range_loop)]
     #[inline(always)]
     fn blocks<const NU: usize>(
         &self,
