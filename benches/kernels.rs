@@ -94,8 +94,19 @@ fn newton_iteration(c: &mut Criterion) {
                 c.bench_function(&name, |b| {
                     b.iter(|| integ.factor_tangent(Factors::Exact).unwrap())
                 });
+                // And its solve, what every iteration on kept exact factors pays (factored here:
+                // a filtered run skips the timed factorizations above).
+                integ.factor_tangent(Factors::Exact).unwrap();
+                let residual = integ.residual_mut().to_vec();
+                c.bench_function(&format!("solve/{label}_ed_exact"), |b| {
+                    b.iter(|| {
+                        integ.residual_mut().copy_from_slice(&residual);
+                        integ.solve_residual()
+                    })
+                });
             }
             let name = format!("solve/{label}_{scheme:?}").to_lowercase();
+            integ.matrix.factor().unwrap();
             let residual = integ.residual_mut().to_vec();
             let mut rhs = residual.clone();
             // The same right-hand side each time: repeated in-place solves would drift into
@@ -134,6 +145,7 @@ fn decoupled_iteration(c: &mut Criterion, label: &str, sim: &Simulation, integ: 
     c.bench_function(&format!("factorization/{label}_ed_decoupled"), |b| {
         b.iter(|| integ.factor_tangent(d).unwrap())
     });
+    integ.factor_tangent(d).unwrap();
     let residual = integ.residual_mut().to_vec();
     c.bench_function(&format!("solve/{label}_ed_decoupled"), |b| {
         b.iter(|| {
