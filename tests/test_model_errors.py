@@ -51,7 +51,8 @@ CASES = [
     ),
     ("axis: [0, 0, 1]}", "axis: [0, 0, 1], drive: 'os.system(t)'}", ["joints[0].drive"]),
     ("axis: [0, 0, 1]}", "axis: [0, 0, 2]}", ["joints[0].axis", "must be a unit vector"]),
-    ("axis: [0, 0, 1]}", "axsi: [0, 0, 1]}", ["joints[0]", "axsi"]),
+    ("axis: [0, 0, 1]}", "axsi: [0, 0, 1]}", ["joints[0]", "axsi", "did you mean `axis`?"]),
+    ("type: spherical", "type: spherica", ["joints[1].type", "did you mean `spherical`?"]),
     ("name: a, position", "name: ground, position", ["nodes[0].name", "reserved"]),
 ]
 

@@ -39,5 +39,130 @@ fn clean(msg: &str) -> String {
     if msg.contains("did not match any variant of untagged enum TimeFunctionSpec") {
         return "must be a number, an expression of t in quotes, or a table {t: [...], value: [...]} (with no other keys)".into();
     }
-    msg.to_string()
+    with_suggestion(msg)
+}
+
+/// Serde's "unknown field" or "unknown variant" message (which lists every name accepted)
+/// with the name likely meant right after the one given — a near spelling — or, for a
+/// beam's `material` and `shape`, where they go (inside its `section`) at the end.
+fn with_suggestion(msg: &str) -> String {
+    // Anywhere in it: a nested form's message starts with its own path.
+    let Some((prefix, rest)) = ["unknown field `", "unknown variant `"]
+        .iter()
+        .find_map(|m| {
+            let at = msg.find(m)? + m.len();
+            Some((&msg[..at], &msg[at..]))
+        })
+    else {
+        return msg.to_string();
+    };
+    let Some((given, after)) = rest.split_once('`') else {
+        return msg.to_string();
+    };
+    // "…, expected one of `a`, `b`" or "expected `a` or `b`": every other piece is a name.
+    let accepted: Vec<&str> = after.split('`').skip(1).step_by(2).collect();
+    if matches!(given, "material" | "shape") && accepted.contains(&"section") {
+        return format!(
+            "{msg}. A beam's material and shape go inside its section: `section: {{material: \
+             {{E: …, nu: … (or G: …), density: …}}, shape: {{rectangle: {{width: …, height: \
+             …}}}}}}`"
+        );
+    }
+    match nearest(given, &accepted) {
+        Some(near) => format!("{prefix}{given}` (did you mean `{near}`?){after}"),
+        None => msg.to_string(),
+    }
+}
+
+/// The accepted name within a typo of `given` (case ignored): one edit in a name of under six
+/// letters, two from six on — closer than another word.
+fn nearest<'a>(given: &str, accepted: &[&'a str]) -> Option<&'a str> {
+    let lower = given.to_lowercase();
+    let (distance, near) = accepted
+        .iter()
+        .map(|a| (strsim::damerau_levenshtein(&lower, &a.to_lowercase()), *a))
+        .min()?;
+    let allowed = if given.chars().count() < 6 { 1 } else { 2 };
+    (distance <= allowed).then_some(near)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn message(yaml: &str) -> String {
+        match parse_yaml(yaml) {
+            Ok(_) => panic!("parsed: {yaml}"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn a_misspelt_name_gets_the_accepted_one_it_was_likely_meant_as() {
+        let joint =
+            "joints: [{type: revolute, name: pin, node1: ground, node2: a, axsi: [0, 0, 1]}]";
+        assert!(
+            message(joint).contains("did you mean `axis`?"),
+            "{}",
+            message(joint)
+        );
+        let kind = "joints: [{type: revolut, name: pin, node1: ground, node2: a}]";
+        assert!(
+            message(kind).contains("did you mean `revolute`?"),
+            "{}",
+            message(kind)
+        );
+        // Case and a transposition are one edit each; a different word gets no guess.
+        let body = "bodies: [{name: b, node: a, Mass: 1, inertia: [1, 1, 1]}]";
+        assert!(
+            message(body).contains("did you mean `mass`?"),
+            "{}",
+            message(body)
+        );
+        // Inside a section's form, whose message starts with the path within it.
+        let shape = "beams: [{name: b, start: [0, 0, 0], end: [1, 0, 0], section: {material: \
+                     {E: 7.0e10, nu: 0.33, density: 2700}, shape: {rectangle: {width: 0.04, heigth: 0.03}}}}]";
+        let m = message(shape);
+        assert!(
+            m.contains("shape.rectangle.heigth") && m.contains("did you mean `height`?"),
+            "{m}"
+        );
+        let hinge = "joints: [{type: hinge, name: pin, node1: ground, node2: a}]";
+        assert!(
+            !message(hinge).contains("did you mean"),
+            "{}",
+            message(hinge)
+        );
+    }
+
+    #[test]
+    fn a_beams_material_outside_its_section_is_told_where_it_goes() {
+        for field in [
+            "material: {E: 7.0e10, nu: 0.33, density: 2700}",
+            "shape: {circle: {diameter: 0.1}}",
+        ] {
+            let yaml = format!("beams: [{{name: b, start: [0, 0, 0], end: [1, 0, 0], {field}}}]");
+            let m = message(&yaml);
+            assert!(
+                m.contains("beams[0]") && m.contains("go inside its section"),
+                "{m}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_shape_written_with_a_type_key_is_told_its_form() {
+        // serde alone said "invalid value: map, expected map with a single key".
+        let yaml = "beams: [{name: b, start: [0, 0, 0], end: [1, 0, 0], section: {material: \
+                    {E: 7.0e10, nu: 0.33, density: 2700}, shape: {type: rectangle, width: 0.04, height: 0.03}}}]";
+        let m = message(yaml);
+        assert!(
+            m.contains("beams[0].section: shape: name the kind as its only key"),
+            "{m}"
+        );
+        assert!(
+            m.contains("{rectangle: {width: 0.04, height: 0.03}}"),
+            "{m}"
+        );
+    }
 }

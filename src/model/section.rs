@@ -141,18 +141,43 @@ impl<'de> Deserialize<'de> for SectionSpec {
         let v = serde_json::Value::deserialize(d)?;
         let full = v.get("stiffness").is_some() || v.get("mass").is_some();
         if v.get("material").is_some() || v.get("shape").is_some() {
-            serde_json::from_value(v)
-                .map(SectionSpec::MaterialShape)
-                .map_err(D::Error::custom)
+            if let Some(shape) = v.get("shape") {
+                check_shape_form(shape).map_err(D::Error::custom)?;
+            }
+            form(v).map(SectionSpec::MaterialShape)
         } else if full {
-            serde_json::from_value(v)
-                .map(SectionSpec::Matrices)
-                .map_err(D::Error::custom)
+            form(v).map(SectionSpec::Matrices)
         } else {
-            serde_json::from_value(v)
-                .map(SectionSpec::Shorthand)
-                .map_err(D::Error::custom)
+            form(v).map(SectionSpec::Shorthand)
         }
+    }
+}
+
+/// One form of a section from its keys, an error prefixed with the path inside the section
+/// (e.g. `material.E: …`).
+fn form<T: serde::de::DeserializeOwned, E: serde::de::Error>(v: serde_json::Value) -> Result<T, E> {
+    serde_path_to_error::deserialize(v).map_err(|e| {
+        let path = e.path().to_string();
+        let inner = e.into_inner();
+        match path.as_str() {
+            "." => E::custom(inner),
+            _ => E::custom(format!("{path}: {inner}")),
+        }
+    })
+}
+
+/// A shape names its kind as its only key (`{rectangle: {width, height}}`): serde's own
+/// message for another map ("expected map with a single key") does not say so.
+fn check_shape_form(shape: &serde_json::Value) -> Result<(), String> {
+    match shape.as_object() {
+        Some(map) if map.len() != 1 || map.contains_key("type") => Err(
+            "shape: name the kind as its only key, its dimensions (m) inside it: e.g. `shape: \
+             {rectangle: {width: 0.04, height: 0.03}}`; kinds: rectangle {width, height}, \
+             circle {diameter}, tube {diameter, wall}, box {width, height, wall}, i_beam \
+             {width, height, flange, web}"
+                .into(),
+        ),
+        _ => Ok(()),
     }
 }
 
