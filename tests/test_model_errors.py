@@ -90,6 +90,25 @@ def test_builder_errors_match_yaml_errors():
         m.validate()
 
 
+def test_builder_keyword_typos_name_the_keyword_meant():
+    """A misspelt keyword gets the accepted one it was likely meant as, like a model file's
+    misspelt key; a keyword like none gets no guess; items in a pattern alike."""
+    m = fd.Model().node("a", [0, 0, 0])
+    with pytest.raises(TypeError, match=r"Model\.revolute\(\) .* 'axsi'; did you mean 'axis'\?"):
+        m.revolute("pin", "ground", "a", axsi=[0, 0, 1])
+    with pytest.raises(TypeError, match=r"'t_edn'; did you mean 't_end'\?"):
+        m.simulation(t_edn=1.0)
+    with pytest.raises(TypeError) as unlike:
+        m.beam("b", start=[0, 0, 0], end=[1, 0, 0], colour="red")
+    assert "'colour'" in str(unlike.value) and "did you mean" not in str(unlike.value)
+    p = m.pattern("blades", count=3, axis=[0, 0, 1])
+    with pytest.raises(TypeError, match=r"'positon'; did you mean 'position'\?"):
+        p.node("tip", positon=[1, 0, 0])
+    # Spelt right, the call goes through unchanged.
+    m.revolute("pin", "ground", "a", axis=[0, 0, 1])
+    assert m.to_dict()["joints"][0]["axis"] == [0, 0, 1]
+
+
 def test_builder_and_yaml_give_the_same_model(tmp_path):
     m = load_text(tmp_path, BASE)
     text = m.to_yaml(tmp_path / "again.yaml")

@@ -17,6 +17,9 @@ the `simulation:` settings; every keyword argument is the item's YAML key
 from __future__ import annotations
 
 import copy
+import difflib
+import functools
+import inspect
 import json
 import warnings
 from collections.abc import Mapping, Sequence
@@ -771,6 +774,39 @@ class Pattern(Model):
     def __repr__(self) -> str:
         d = self.data
         return f"Pattern({d['name']!r}: {d['count']} copies of {len(d['nodes'])} nodes, {len(d['beams'])} beams, {len(d['joints'])} joints)"
+
+
+def _suggesting_keywords(method):
+    """`method`, whose misspelt keyword argument is told the accepted one it was likely meant
+    as (as a model file's misspelt key is): `Model.revolute() got an unexpected keyword
+    argument 'axsi'; did you mean 'axis'?`."""
+    parameters = inspect.signature(method).parameters.values()
+    kinds = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    accepted = [p.name for p in parameters if p.kind in kinds and p.name != "self"]
+
+    @functools.wraps(method)
+    def checked(*args, **kwargs):
+        for given in kwargs:
+            if given not in accepted:
+                near = difflib.get_close_matches(given, accepted, n=1, cutoff=0.75)
+                hint = f"; did you mean {near[0]!r}?" if near else ""
+                raise TypeError(f"{method.__qualname__}() got an unexpected keyword argument {given!r}{hint}")
+        return method(*args, **kwargs)
+
+    return checked
+
+
+def _suggest_keywords(cls: type) -> None:
+    """Every public method of `cls` with a fixed set of keywords tells a misspelt one."""
+    for name, member in list(vars(cls).items()):
+        if name.startswith("_") or not inspect.isfunction(member):
+            continue
+        kinds = {p.kind for p in inspect.signature(member).parameters.values()}
+        if inspect.Parameter.VAR_KEYWORD not in kinds:
+            setattr(cls, name, _suggesting_keywords(member))
+
+
+_suggest_keywords(Model)
 
 
 #: Largest model file read, bytes (a model is text; anything larger is a mistake).
