@@ -19,6 +19,11 @@
 //! collar sliding along a beam moves its contact weights `h(ζ)` by ~15 % of a node spacing per
 //! step, which made one-step-old factors contract at 0.02–0.07 per iteration; with the border
 //! refreshed, ~0.009 (sliding-joint models refactored at most steps before).
+//!
+//! The refresh's cost is the fill of `L₂₁` and `U₁₂`, which runs from the first unknown the
+//! border couples to down to the end of the leading block: [`StaticPivotLu::border_refresh_share`]
+//! counts it against a refactorization, and the Newton matrix drops a border too dear to
+//! refresh (`MAX_BORDER_REFRESH_SHARE` in `sparse.rs`).
 
 use super::refactor::{Scalar, StaticPivotLu};
 use super::substitution;
@@ -27,6 +32,36 @@ impl<T: Scalar<Vector = T>> StaticPivotLu<T> {
     /// Whether factor rows and columns from [`Self::lead`] on are a border.
     pub fn has_border(&self) -> bool {
         self.lead < self.n
+    }
+
+    /// What refreshing the border costs against refactoring the whole matrix, counted in
+    /// multiply-adds of the factors' patterns: the border rows' `L₂₁` substitutions and the
+    /// border columns' left-looking updates, over every column's updates (the dense
+    /// kernels' cost per multiply-add is alike in both).
+    pub fn border_refresh_share(&self) -> f64 {
+        let update = |k: usize| -> usize {
+            let upper = &self.u.row[self.u.ptr[k]..self.u.ptr[k + 1]];
+            upper
+                .iter()
+                .map(|&j| self.l.ptr[j + 1] - self.l.ptr[j])
+                .sum::<usize>()
+                + self.l.ptr[k + 1]
+                - self.l.ptr[k]
+        };
+        let whole: usize = (0..self.n).map(update).sum();
+        let columns: usize = (self.lead..self.n).map(update).sum();
+        let rows: usize = (self.lead..self.n)
+            .map(|r| {
+                let mut cost = 0;
+                for &(first, len) in self.l_rows.runs.of(r) {
+                    for j in first..(first + len).min(self.lead) {
+                        cost += self.u.ptr[j + 1] - self.u.ptr[j] + 1;
+                    }
+                }
+                cost
+            })
+            .sum();
+        (rows + columns) as f64 / whole.max(1) as f64
     }
 
     /// Recomputes the border's part of the factors from `values` (the matrix's, of which only
