@@ -273,6 +273,35 @@ def test_a_function_undefined_after_some_time_is_named_as_the_cause(where, name,
     assert 0.29 < t[-1] <= 0.3
 
 
+def test_a_drive_whose_rate_jumps_is_named_as_the_cause():
+    # A drive ramped up with min(): its rate jumps from 0.5 to 0 at 0.3 s, which needs an
+    # infinite torque; the adaptive steps shrink to dt_min there and the run stops naming the
+    # drive and the jump, not only the tolerance.
+    m = fd.Model("kinked drive", gravity=[0, 0, -9.81])
+    m.node("bob", [1, 0, 0]).body("ball", "bob", mass=1.0, inertia=[0.01, 0.01, 0.01])
+    m.revolute("pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0], drive="0.5*min(t, 0.3)")
+    m.simulation(t_end=1.0)
+    with pytest.raises(fd.SolverError) as e:
+        fd.simulate(m)
+    message = str(e.value)
+    assert "the drive `pin.drive_phi` changes its rate abruptly at t = 0.3" in message, message
+    assert "from 5.000000e-1 to 0.000000e0 per s" in message, message
+    t = e.value.results["time"].values
+    assert 0.29 < t[-1] <= 0.3 + 1e-6
+
+
+def test_a_smooth_drive_is_not_taken_for_a_jump():
+    # A fast smooth drive (rate 30 rad/s, acceleration 900 rad/s²) whose run fails for another
+    # reason (a tolerance no step meets) is not blamed on its drive.
+    m = fd.Model("smooth drive", gravity=[0, 0, -9.81])
+    m.node("bob", [1, 0, 0]).body("ball", "bob", mass=1.0, inertia=[0.01, 0.01, 0.01])
+    m.revolute("pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0], drive="sin(30*t)")
+    m.simulation(t_end=0.05, tolerance=1e-15, dt_min=1e-6)
+    with pytest.raises(fd.SolverError) as e:
+        fd.simulate(m)
+    assert "drive" not in str(e.value), str(e.value)
+
+
 def test_beam_sections_between_steps_follow_a_spinning_beam():
     # A free beam spinning about its middle at 5 rad/s, 0.25 rad per step: its sections,
     # sampled between steps, carry the same steady centrifugal tension and no shear — the

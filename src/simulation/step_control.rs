@@ -298,12 +298,16 @@ impl Simulation {
             .max(self.stats.dt_largest)
             .min(self.settings.t_end - t);
         let ahead = (1..=64).map(|k| t + horizon * k as f64 / 64.0);
-        let reason = ahead
+        let reason = match ahead
             .filter_map(|t_f| self.system.undefined_time_function(t, t_f))
             .next()
-            .map_or(reason, |why| {
-                format!("the steps shrank to dt_min approaching a singularity: {why}")
-            });
+        {
+            Some(why) => format!("the steps shrank to dt_min approaching a singularity: {why}"),
+            None => match self.system.time_function_jump(t) {
+                Some(why) => format!("the steps shrank to dt_min: {why}"),
+                None => reason,
+            },
+        };
         StepFailure {
             t,
             h,
