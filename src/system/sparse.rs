@@ -966,14 +966,7 @@ mod tests {
         let (mut spread, _) = bordered_chain(BORDERED_CHAIN, &places, entry, border_entry(0.0));
         let n = spread.n;
         // Its bordered factors, as the first factorization makes them.
-        spread.factor_with_pivots(true).unwrap();
-        spread.factors.rebuild(
-            (&spread.col_ptr, &spread.row_idx),
-            (&spread.row_perm, &spread.row_perm_inv),
-            &spread.col_perm,
-            (&spread.pivoting, |v| v),
-            BORDERED_CHAIN,
-        );
+        assert!(spread.factor_bordered().unwrap());
         let share = spread.factors.border_refresh_share();
         assert!(share > MAX_BORDER_REFRESH_SHARE, "{share}");
         let orderings = spread.orderings;

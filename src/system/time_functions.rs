@@ -94,10 +94,9 @@ fn undefined(what: &str, name: &str, t: f64, value: f64, rate: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::time_function::TimeFunctionSpec;
 
     fn expression(text: &str) -> TimeFunction {
-        TimeFunction::new(&TimeFunctionSpec::Expression(text.into())).unwrap()
+        TimeFunction::expression(text)
     }
 
     #[test]

@@ -98,7 +98,7 @@ mod tests {
     use super::*;
 
     fn function(text: &str) -> TimeFunction {
-        TimeFunction::new(&TimeFunctionSpec::Expression(text.into())).unwrap()
+        TimeFunction::expression(text)
     }
 
     #[test]

@@ -48,6 +48,12 @@ pub enum TimeFunction {
 }
 
 impl TimeFunction {
+    /// The function of an expression known to be valid (tests).
+    #[cfg(test)]
+    pub fn expression(text: &str) -> TimeFunction {
+        TimeFunction::new(&TimeFunctionSpec::Expression(text.into())).unwrap()
+    }
+
     /// Builds a time function; the error text says what is wrong with the expression or table.
     pub fn new(spec: &TimeFunctionSpec) -> Result<Self, String> {
         match spec {
