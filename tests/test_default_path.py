@@ -290,6 +290,35 @@ def test_a_drive_whose_rate_jumps_is_named_as_the_cause():
     assert 0.29 < t[-1] <= 0.3 + 1e-6
 
 
+@pytest.mark.parametrize(
+    "drive, what",
+    [
+        ("0.2*(t > 0.3)", "jumps at t = 0.300000 s (from 0.000000e0 to 2.000000e-1)"),
+        ("0.5*min(t, 0.3)", "changes its rate abruptly at t = 0.300000 s"),
+    ],
+)
+def test_a_drive_that_jumps_is_warned_of_before_the_run(drive, what):
+    # Found on the grid before the first step: a prescribed angle that jumps by 0.2 rad at
+    # 0.3 s (which adaptive steps pass without a word, as an impulsive motion) or whose rate
+    # jumps (which they stall at). A smooth drive and a load that steps get no warning.
+    m = fd.Model("jumping drive", gravity=[0, 0, -9.81])
+    m.node("bob", [1, 0, 0]).body("ball", "bob", mass=1.0, inertia=[0.01, 0.01, 0.01])
+    m.revolute("pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0], drive=drive)
+    m.simulation(t_end=1.0, step_control="fixed", dt=1e-3)
+    warnings = fd.simulate(m).flexdyn.warnings
+    assert any(f"the drive `pin.drive_phi` {what}" in w for w in warnings), warnings
+
+
+def test_smooth_drives_and_stepped_loads_get_no_jump_warning():
+    m = fd.Model("smooth drive", gravity=[0, 0, -9.81])
+    m.node("bob", [1, 0, 0]).body("ball", "bob", mass=1.0, inertia=[0.01, 0.01, 0.01])
+    m.revolute("pin", "ground", "bob", axis=[0, 1, 0], position=[0, 0, 0], drive="0.3*sin(20*t)")
+    m.force("push", "bob", [0, 0, 1.0], scale="(t > 0.3)")
+    m.simulation(t_end=1.0, step_control="fixed", dt=1e-3)
+    warnings = fd.simulate(m).flexdyn.warnings
+    assert not any("jumps" in w or "abruptly" in w for w in warnings), warnings
+
+
 def test_a_smooth_drive_is_not_taken_for_a_jump():
     # A fast smooth drive (rate 30 rad/s, acceleration 900 rad/s²) whose run fails for another
     # reason (a tolerance no step meets) is not blamed on its drive.

@@ -193,6 +193,9 @@ impl Simulation {
         let (mut state, mut warnings) = initial_state(model, &system, &settings, statics)?;
         stick_slip::start_frictions(&mut system, &mut state);
         warnings.extend(stick_slip::static_friction_warning(&system, statics));
+        if !statics {
+            warnings.extend(system.time_function_jumps(settings.t_end));
+        }
         let mut integrator = Integrator::new(&system, &settings);
         let energy_floor = if statics || settings.step_control == StepControl::Fixed {
             0.0

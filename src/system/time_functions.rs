@@ -33,29 +33,76 @@ impl System {
 }
 
 impl System {
-    /// The first drive or load scale whose value or rate jumps at `t` (an expression's
-    /// `min`, `max`, `abs` or a step), described for the user: a prescribed motion whose
-    /// velocity jumps needs an infinite force there, which no step, however short, resolves.
-    /// A table's breakpoints are no such jumps: steps land on them.
+    /// The first drive whose value or rate jumps at `t` (an expression's `min`, `max`, `abs`
+    /// or a step), described for the user: a prescribed motion whose velocity jumps needs an
+    /// infinite force there, which no step, however short, resolves. (A load may jump: a
+    /// suddenly applied force is finite.)
     pub fn time_function_jump(&self, t: f64) -> Option<String> {
-        let drives = self
-            .drives
-            .iter()
-            .map(|d| ("the drive", self.row_names[d.row].0.as_str(), &d.function));
-        let scales = self
-            .load_scales
-            .iter()
-            .map(|(name, f)| ("the scale of load", name.as_str(), f));
-        for (what, name, f) in drives.chain(scales) {
-            if matches!(f, TimeFunction::Table { .. }) {
-                continue;
-            }
-            if let Some(jump) = jump_at(f, t) {
-                return Some(format!("{what} `{name}` {jump}"));
-            }
-        }
-        None
+        self.drive_expressions()
+            .find_map(|(name, f)| jump_at(f, t).map(|jump| format!("the drive `{name}` {jump}")))
     }
+
+    /// A warning per drive whose value or rate jumps somewhere in `[0, t_end]` (its first
+    /// such place): found on a grid of [`JUMP_GRID`] intervals — where a value or rate moves
+    /// far more than its derivatives allow — and pinned down by bisection. A prescribed
+    /// position that jumps is an impulsive motion and a rate that jumps an impulsive force,
+    /// which a run would otherwise pass silently (fixed steps) or stall at (adaptive ones).
+    pub fn time_function_jumps(&self, t_end: f64) -> Vec<String> {
+        self.drive_expressions()
+            .filter_map(|(name, f)| {
+                let t = first_jump(f, t_end)?;
+                jump_at(f, t).map(|jump| format!("the drive `{name}` {jump}"))
+            })
+            .collect()
+    }
+
+    /// The drives given as expressions, with their names (tables are piecewise linear by
+    /// design, and steps land on their breakpoints).
+    fn drive_expressions(&self) -> impl Iterator<Item = (&str, &TimeFunction)> {
+        self.drives
+            .iter()
+            .map(|d| (self.row_names[d.row].0.as_str(), &d.function))
+            .filter(|(_, f)| matches!(f, TimeFunction::Expression { .. }))
+    }
+}
+
+/// Intervals of the grid [`System::time_function_jumps`] samples a function on.
+pub const JUMP_GRID: usize = 4096;
+
+/// Where in `[0, t_end]` `f` first jumps in value or rate (within round-off of the place).
+fn first_jump(f: &TimeFunction, t_end: f64) -> Option<f64> {
+    if t_end.is_nan() || t_end <= 0.0 {
+        return None;
+    }
+    let step = t_end / JUMP_GRID as f64;
+    let k = (0..JUMP_GRID).find(|&k| leaps(f, k as f64 * step, (k + 1) as f64 * step))?;
+    let (mut a, mut b) = (k as f64 * step, (k + 1) as f64 * step);
+    // Halve towards the half that still leaps, down to round-off of the place.
+    while b - a > 1e-9 * b.abs().max(1.0) {
+        let m = 0.5 * (a + b);
+        if leaps(f, a, m) {
+            b = m;
+        } else if leaps(f, m, b) {
+            a = m;
+        } else {
+            break;
+        }
+    }
+    Some(0.5 * (a + b))
+}
+
+/// Whether `f`'s value or rate moves from `a` to `b` by far more (10×) than its rate, or
+/// its acceleration, at either end allows.
+fn leaps(f: &TimeFunction, a: f64, b: f64) -> bool {
+    let (fa, fb) = (f.jet(a), f.jet(b));
+    let h = b - a;
+    let rate = fa.d.abs().max(fb.d.abs());
+    let acceleration = fa.dd.abs().max(fb.dd.abs());
+    let scale = |x: f64, y: f64| 1e-9 * x.abs().max(y.abs()).max(1e-300);
+    let value_leaps =
+        (fb.v - fa.v).abs() > 10.0 * (h * rate + h * h * acceleration) + scale(fa.v, fb.v);
+    let rate_leaps = (fb.d - fa.d).abs() > 10.0 * h * acceleration + 1e-6 * rate + 1e-300;
+    value_leaps || rate_leaps
 }
 
 /// How `f`'s value or rate jumps at `t`, if it does: each compared a hair before and after
@@ -69,8 +116,9 @@ fn jump_at(f: &TimeFunction, t: f64) -> Option<String> {
     let at = format!("at t = {t:.6} s");
     if jumps(before.v, after.v, before.d.abs().max(after.d.abs())) {
         return Some(format!(
-            "jumps {at} (from {:.6e} to {:.6e}): a function of time must be continuous, and a \
-             drive's rate too (smooth the expression there, e.g. blend over a short time)",
+            "jumps {at} (from {:.6e} to {:.6e}): a prescribed position that jumps is an \
+             impulsive motion, which no step follows; make it continuous, and its rate too \
+             (e.g. blend the pieces over a short time)",
             before.v, after.v
         ));
     }
@@ -112,5 +160,29 @@ mod tests {
         }
         // Away from its kink, min() is smooth.
         assert_eq!(jump_at(&expression("0.5*min(t, 0.3)"), 0.2), None);
+    }
+
+    #[test]
+    fn a_run_finds_where_a_function_first_jumps() {
+        for (text, at) in [
+            ("0.2*(t > 0.3) + t", 0.3),
+            ("0.5*min(t, 0.7)", 0.7),
+            ("abs(t - 1.2345)", 1.2345),
+        ] {
+            let t = first_jump(&expression(text), 2.0).unwrap_or_else(|| panic!("{text}"));
+            assert!((t - at).abs() < 1e-8, "{text}: {t}");
+            assert!(jump_at(&expression(text), t).is_some(), "{text} at {t}");
+        }
+        // Smooth, however fast or curved over the grid (a period of 0.2 grid intervals at
+        // 20 s: 4096 intervals of 4.9 ms against sin(1300 t)'s 4.8 ms).
+        for text in [
+            "sin(1300*t)",
+            "exp(3*t)",
+            "t^3 - 2*t",
+            "1 - cos(2*pi*t)",
+            "0.3",
+        ] {
+            assert_eq!(first_jump(&expression(text), 20.0), None, "{text}");
+        }
     }
 }
