@@ -49,8 +49,9 @@ impl<T: ComplexField + Copy + Default + Scalar<Vector = T>> Entry for T {}
 /// [`StaticPivotLu::border_refresh_share`]) is dropped at its first factorization, the matrix
 /// then factored without one. Many contacts spread over a model fill the border's rows and
 /// columns across most of the factors: the VDTR's 58 border unknowns cost 0.68–0.77 of a
-/// refactorization per refresh, and its EP ran 2.3× faster without them (0.545 → 0.237 s for
-/// 0.3 s at 1 ms; ED 0.307 → 0.277 s). One contact costs 0.14–0.21 (free collar, beam
+/// refactorization per refresh, and its EP runs 2.2× faster with the border dropped (0.545 →
+/// 0.25 s for 0.3 s at 1 ms; ED unchanged, its decoupled border was never refreshed). One
+/// contact costs 0.14–0.21 (free collar, beam
 /// sliders, a carriage on a rail) and its refresh pays (the free collar's EP at 1 ms: 2.2
 /// iterations per step with it, 5.0 without).
 pub const MAX_BORDER_REFRESH_SHARE: f64 = 0.5;
@@ -805,8 +806,10 @@ mod tests {
         bordered_chain(BORDERED_CHAIN, &[12], value, border)
     }
 
-    /// Unknowns of [`bordered`]'s chain: long enough for its one contact to stay local
-    /// (its refresh ~0.1 of a refactorization, below [`MAX_BORDER_REFRESH_SHARE`]).
+    /// Unknowns of [`bordered`]'s chain: long enough for its one contact to stay local (its
+    /// refresh 0.40 of a refactorization, below [`MAX_BORDER_REFRESH_SHARE`]; 0.6 or more
+    /// with 30), short enough for the fixtures' pivots (at 90 the refresh test's residual grew
+    /// to 1.4e-11, at 120 a border pivot failed).
     const BORDERED_CHAIN: usize = 60;
 
     /// [`bordered`] with a chain of `len` unknowns (a multiple of 3, at least 30) and a
