@@ -78,9 +78,10 @@ impl<T: Copy + Default + Add<Output = T> + Mul<f64, Output = T>> BorderEntry for
 /// The unknowns a system's Newton matrices take as a border: with modified Newton, the
 /// sliding contacts' ([`sliding_unknowns`]); none otherwise.
 pub fn border_of(sys: &System, modified_newton: bool) -> Vec<usize> {
-    match modified_newton && std::env::var_os("XNOBORDER").is_none() {
-        true => sliding_unknowns(sys),
-        false => Vec::new(),
+    if modified_newton {
+        sliding_unknowns(sys)
+    } else {
+        Vec::new()
     }
 }
 
