@@ -178,6 +178,13 @@ pub struct Integrator {
     /// Modified Newton: keep the LU factors across iterations and steps of the same size
     /// while the iteration contracts fast enough (see `contraction_too_slow`).
     pub modified_newton: bool,
+    /// Whether a singular Newton matrix is solved as a consistent system with redundant
+    /// constraint rows (dense, [`redundancy::solve_consistent`]) instead of failing the step:
+    /// for the rigidified mechanism of a pre-load only, whose rigid beams over-constrain the
+    /// loops their flexibility closed (a slider-crank's rod between parallel pins).
+    ///
+    /// [`redundancy::solve_consistent`]: crate::system::redundancy::solve_consistent
+    pub solve_redundant: bool,
     /// The step size the current LU factors were computed for (None: no valid factors).
     factored_for: Option<f64>,
     /// Whether the last step converged, so its factors may start the next one.
@@ -419,6 +426,7 @@ impl Integrator {
             pattern_misses: 0,
             pattern_rebuilds: 0,
             modified_newton: false,
+            solve_redundant: false,
             factored_for: None,
             last_converged: false,
             started_stale: false,
@@ -1343,12 +1351,48 @@ impl Integrator {
             // The kind the tangent was assembled for, before the lifetimes change.
             let kind = self.fresh_factors(ctx);
             self.note_lifetime(kind, self.factors_fit(ctx));
-            self.solve_update(kind)
-                .map_err(|reason| step_failure(ctx, reason, true))?;
-            self.factored_for = Some(ctx.h);
-            self.factored_this_solve = true;
+            // The LU's static pivots leave a singular matrix's update non-finite.
+            let before = self
+                .solve_redundant
+                .then(|| (self.y.clone(), self.res.clone()));
+            match (self.solve_update(kind), before) {
+                (Ok(()), Some((y, res))) if self.res.iter().any(|v| !v.is_finite()) => {
+                    (self.y, self.res) = (y, res);
+                    self.solve_redundant_update();
+                }
+                (Ok(()), _) => {
+                    self.factored_for = Some(ctx.h);
+                    self.factored_this_solve = true;
+                }
+                (Err(_), Some(_)) => self.solve_redundant_update(),
+                (Err(reason), None) => return Err(step_failure(ctx, reason, true)),
+            }
         }
         Ok(())
+    }
+
+    /// The update from the assembled (singular) Newton matrix as a consistent system with
+    /// redundant constraint rows: unique in the motion unknowns, one of the solutions in the
+    /// multipliers of the redundant rows. Dense, O(n³): for a one-off solve (see
+    /// `solve_redundant`). The update stays in `res`, as after a back-substitution.
+    fn solve_redundant_update(&mut self) {
+        let started = self.timings.start();
+        let (col_ptr, row_idx) = self.matrix.pattern();
+        let n = col_ptr.len() - 1;
+        let mut dense = vec![0.0; n * n];
+        for j in 0..n {
+            for p in col_ptr[j]..col_ptr[j + 1] {
+                dense[row_idx[p] * n + j] += self.matrix.values[p];
+            }
+        }
+        let update = crate::system::redundancy::solve_consistent(&mut dense, n, &self.res);
+        for ((y, r), d) in self.y.iter_mut().zip(self.res.iter_mut()).zip(&update) {
+            *y -= d;
+            *r = *d;
+        }
+        self.solves += 1;
+        self.factored_for = None;
+        self.timings.add(Phase::Solves, started);
     }
 
     /// Whether the update just applied (left in `res` by the solve) moved every node by

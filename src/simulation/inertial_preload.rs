@@ -84,18 +84,46 @@ pub(super) fn preload_at_rest(
     } else {
         vec![(V3::zero(), V3::zero()); by_itself.len()]
     };
-    let held = holding_free_coordinates(model, system, state);
+    let held = holding_free_coordinates(model, system, state)?;
     preload_with(&held, system, state, &accelerations, AT_REST_ELASTIC)?;
     Ok(true)
 }
 
-/// `model` with every joint coordinate no drive prescribes held where `state` has it: the
-/// at-rest pre-load strains the beams under the loads with the mechanism as the rigidified
-/// gate found it, at rest. A free collar on a cantilever has no static equilibrium once the
-/// beam sags (it would slide to the tip), nor a static restraint where the beam is level:
-/// its static solve failed, and the cantilever rang about its sag. Held, the beams start in
-/// their sag and the collar slides from there.
-fn holding_free_coordinates(model: &Model, system: &System, state: &State) -> Model {
+/// `model` with every joint coordinate that no drive prescribes and the rigidified mechanism
+/// leaves free held where `state` has it: the at-rest pre-load strains the beams under the
+/// loads with the mechanism as the rigidified gate found it, at rest. A free collar on a
+/// cantilever has no static equilibrium once the beam sags (it would slide to the tip), nor
+/// a static restraint where the beam is level: its static solve failed, and the cantilever
+/// rang about its sag. Held, the beams start in their sag and the collar slides from there.
+/// A coordinate the rigid mechanism determines is not held: only the beams' flexibility
+/// moves it (a slider-crank rod's pins, held, would start the rod clamped at both ends).
+fn holding_free_coordinates(
+    model: &Model,
+    system: &System,
+    state: &State,
+) -> Result<Model, String> {
+    let rigid = compile::compile(&rigidified(model), Scheme::Ep)
+        .map_err(|e| format!("the rigidified mechanism does not compile: {}", e.0[0]))?;
+    let free: Vec<usize> = system
+        .joint_info
+        .iter()
+        .flat_map(|info| {
+            info.coords
+                .iter()
+                .filter(|c| c.drive.is_none())
+                .map(|c| c.coord)
+        })
+        .collect();
+    let mut at = rigid.initial.clone();
+    at.nodes.clone_from(&state.nodes);
+    at.coords.clone_from(&state.coords);
+    let determined = crate::system::redundancy::determined_coords(&rigid, &at, &free);
+    let held_coords: Vec<usize> = free
+        .iter()
+        .zip(&determined)
+        .filter(|(_, &d)| !d)
+        .map(|(&c, _)| c)
+        .collect();
     let mut held = model.clone();
     for info in &system.joint_info {
         let Some(joint) = held.joints.iter_mut().find(|j| j.name() == info.name) else {
@@ -103,13 +131,13 @@ fn holding_free_coordinates(model: &Model, system: &System, state: &State) -> Mo
         };
         let sliding = system.joints[info.kernel].as_sliding();
         for (k, c) in info.coords.iter().enumerate() {
-            if c.drive.is_none() {
+            if held_coords.contains(&c.coord) {
                 let q = state.coords[c.coord];
                 joint.hold_coordinate(k, sliding.map_or(q, |sl| sl.arc.eta(q)));
             }
         }
     }
-    held
+    Ok(held)
 }
 
 /// A drive's acceleration (m/s² or rad/s²) below which it is at rest: round-off of an
@@ -211,6 +239,9 @@ fn rigid_accelerations(
     let mut ep = settings.clone();
     ep.scheme = Scheme::Ep;
     let mut integrator = Integrator::new(&rigid, &ep);
+    // Rigid beams over-constrain the loops their flexibility closed (a slider-crank's rod
+    // between parallel pins, a shaft on two bearings): the accelerations are unique still.
+    integrator.solve_redundant = true;
     let (end, _) = integrator
         .step(&rigid, &start, h)
         .map_err(|e| format!("the rigidified mechanism has no solution: {}", e.reason))?;

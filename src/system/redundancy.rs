@@ -80,6 +80,146 @@ pub fn can_stick(sys: &System, state: &State, k: usize) -> bool {
     eliminate(sys, a, &rows).is_empty()
 }
 
+/// Which of the coordinates `coords` the constraint rows of `sys` at `state` determine: the
+/// unit row of a coordinate's rate is a combination of the rows (the mechanism cannot move
+/// it by itself), or it is not (a free degree of freedom, a collar's η on a rigid beam).
+/// One elimination of the rows, then each coordinate's row reduced against them.
+pub fn determined_coords(sys: &System, state: &State, coords: &[usize]) -> Vec<bool> {
+    let mut a = constraint_matrix(sys, state);
+    for f in &sys.frictions {
+        a[f.row].iter_mut().for_each(|v| *v = 0.0);
+    }
+    let n = a
+        .first()
+        .map_or(6 * sys.layout.n_nodes + sys.layout.n_coords, Vec::len);
+    for row in a.iter_mut() {
+        let s = row.iter().fold(0.0f64, |x, v| x.max(v.abs()));
+        if s > 0.0 {
+            row.iter_mut().for_each(|v| *v /= s);
+        }
+    }
+    // Reduced rows with their pivot columns, by full pivoting (as `eliminate`).
+    let mut pivots: Vec<(usize, Vec<f64>)> = Vec::new();
+    let mut rest = a;
+    loop {
+        let mut best = (1e-9, usize::MAX, 0);
+        for (i, row) in rest.iter().enumerate() {
+            for (j, v) in row.iter().enumerate() {
+                if v.abs() > best.0 {
+                    best = (v.abs(), i, j);
+                }
+            }
+        }
+        if best.1 == usize::MAX {
+            break;
+        }
+        let (_, pi, pj) = best;
+        let pivot = rest.swap_remove(pi);
+        for row in rest.iter_mut() {
+            let f = row[pj] / pivot[pj];
+            if f != 0.0 {
+                row.iter_mut().zip(&pivot).for_each(|(x, p)| *x -= f * p);
+            }
+        }
+        pivots.push((pj, pivot));
+    }
+    coords
+        .iter()
+        .map(|&c| {
+            let mut e = vec![0.0; n];
+            e[6 * sys.layout.n_nodes + c] = 1.0;
+            for (pj, pivot) in &pivots {
+                let f = e[*pj] / pivot[*pj];
+                if f != 0.0 {
+                    e.iter_mut().zip(pivot).for_each(|(x, p)| *x -= f * p);
+                }
+            }
+            e.iter().all(|v| v.abs() <= 1e-9)
+        })
+        .collect()
+}
+
+/// Solves the dense system `a x = b` (`a` row-major, `n × n`, overwritten) that is singular
+/// because some of its rows depend on others — a Newton matrix whose constraint rows are
+/// redundant — and consistent to first order: Gaussian elimination with full pivoting on the
+/// equilibrated matrix stops at its numerical rank (pivots below `1e-10` of the largest
+/// entry), the remaining unknowns are set to zero, the dependent rows dropped. The unknowns
+/// every solution shares (a mechanism's motion) come out exact; of those that differ (the
+/// multipliers of redundant rows), one solution.
+pub fn solve_consistent(a: &mut [f64], n: usize, b: &[f64]) -> Vec<f64> {
+    let mut rhs = b.to_vec();
+    let mut col_scale = vec![1.0; n];
+    equilibrate(a, n, &mut rhs, &mut col_scale);
+    let mut cols: Vec<usize> = (0..n).collect();
+    let mut rank = 0;
+    while rank < n {
+        let (mut big, mut pi, mut pj) = (0.0, rank, rank);
+        for i in rank..n {
+            for j in rank..n {
+                if a[i * n + j].abs() > big {
+                    (big, pi, pj) = (a[i * n + j].abs(), i, j);
+                }
+            }
+        }
+        if big <= 1e-10 {
+            break;
+        }
+        swap_rows(a, n, rank, pi);
+        rhs.swap(rank, pi);
+        for row in a.chunks_mut(n) {
+            row.swap(rank, pj);
+        }
+        cols.swap(rank, pj);
+        for i in rank + 1..n {
+            let f = a[i * n + rank] / a[rank * n + rank];
+            if f != 0.0 {
+                for j in rank..n {
+                    a[i * n + j] -= f * a[rank * n + j];
+                }
+                rhs[i] -= f * rhs[rank];
+            }
+        }
+        rank += 1;
+    }
+    let mut x = vec![0.0; n];
+    for k in (0..rank).rev() {
+        let sum: f64 = (k + 1..rank).map(|j| a[k * n + j] * x[j]).sum();
+        x[k] = (rhs[k] - sum) / a[k * n + k];
+    }
+    let mut out = vec![0.0; n];
+    for (k, &c) in cols.iter().enumerate() {
+        out[c] = x[k] * col_scale[c];
+    }
+    out
+}
+
+/// Scales `a`'s rows (and `rhs`) and then its columns to unit max-norm; `col_scale` gets the
+/// column factors, by which the solution of the scaled system is multiplied.
+fn equilibrate(a: &mut [f64], n: usize, rhs: &mut [f64], col_scale: &mut [f64]) {
+    for (row, r) in a.chunks_mut(n).zip(rhs.iter_mut()) {
+        let s = row.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        if s > 0.0 {
+            row.iter_mut().for_each(|v| *v /= s);
+            *r /= s;
+        }
+    }
+    for (j, scale) in col_scale.iter_mut().enumerate() {
+        let s = (0..n).fold(0.0f64, |m, i| m.max(a[i * n + j].abs()));
+        if s > 0.0 {
+            (0..n).for_each(|i| a[i * n + j] /= s);
+            *scale = 1.0 / s;
+        }
+    }
+}
+
+fn swap_rows(a: &mut [f64], n: usize, i: usize, k: usize) {
+    if i != k {
+        let (lo, hi) = (i.min(k), i.max(k));
+        let (top, bottom) = a.split_at_mut(hi * n);
+        top[lo * n..lo * n + n].swap_with_slice(&mut bottom[..n]);
+    }
+}
+
 /// The dependences among rows `a` (original row numbers `rows`).
 fn eliminate(sys: &System, mut a: Vec<Vec<f64>>, rows: &[usize]) -> Vec<Dependence> {
     let m = a.len();
@@ -149,4 +289,40 @@ fn eliminate(sys: &System, mut a: Vec<Vec<f64>>, rows: &[usize]) -> Vec<Dependen
             Dependence { owners }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::solve_consistent;
+
+    /// A mass on a line held by the same constraint twice (`x = 0.3` as rows 2 and 3, the
+    /// second scaled): `[[k, 1, 2], [1, 0, 0], [2, 0, 0]] [x, μ₁, μ₂] = [f, 0.3, 0.6]`. Singular,
+    /// consistent; x is unique (0.3) and the multipliers satisfy `μ₁ + 2μ₂ = f − k x`.
+    #[test]
+    fn a_redundant_consistent_system_gets_its_unique_motion_and_a_valid_force() {
+        let (k, f) = (5.0e3, 40.0);
+        let mut a = vec![k, 1.0, 2.0, 1.0, 0.0, 0.0, 2.0, 0.0, 0.0];
+        let x = solve_consistent(&mut a, 3, &[f, 0.3, 0.6]);
+        assert!((x[0] - 0.3).abs() < 1e-14, "{x:?}");
+        // Round-off of the entries' scale (k · 1e-16 relative).
+        assert!(
+            (x[1] + 2.0 * x[2] - (f - k * 0.3)).abs() < 1e-9 * k,
+            "{x:?}"
+        );
+        assert!(x.iter().all(|v| v.is_finite()));
+    }
+
+    /// A regular system is solved as by any LU (full rank: nothing dropped).
+    #[test]
+    fn a_regular_system_is_solved_exactly() {
+        let mut a = vec![4.0, -2.0, 1.0, -2.0, 4.0, -2.0, 1.0, -2.0, 4.0];
+        let want = [1.0, -2.0, 0.5];
+        let b: Vec<f64> = (0..3)
+            .map(|i| (0..3).map(|j| a[3 * i + j] * want[j]).sum())
+            .collect();
+        let x = solve_consistent(&mut a, 3, &b);
+        for (got, w) in x.iter().zip(want) {
+            assert!((got - w).abs() < 1e-14, "{x:?}");
+        }
+    }
 }
