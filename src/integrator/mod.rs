@@ -1379,13 +1379,13 @@ impl Integrator {
         let started = self.timings.start();
         let (col_ptr, row_idx) = self.matrix.pattern();
         let n = col_ptr.len() - 1;
-        let mut dense = vec![0.0; n * n];
+        let mut dense = vec![vec![0.0; n]; n];
         for j in 0..n {
             for p in col_ptr[j]..col_ptr[j + 1] {
-                dense[row_idx[p] * n + j] += self.matrix.values[p];
+                dense[row_idx[p]][j] += self.matrix.values[p];
             }
         }
-        let update = crate::system::redundancy::solve_consistent(&mut dense, n, &self.res);
+        let update = crate::system::redundancy::solve_consistent(dense, &self.res);
         for ((y, r), d) in self.y.iter_mut().zip(self.res.iter_mut()).zip(&update) {
             *y -= d;
             *r = *d;

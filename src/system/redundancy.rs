@@ -89,47 +89,17 @@ pub fn determined_coords(sys: &System, state: &State, coords: &[usize]) -> Vec<b
     for f in &sys.frictions {
         a[f.row].iter_mut().for_each(|v| *v = 0.0);
     }
-    let n = a
-        .first()
-        .map_or(6 * sys.layout.n_nodes + sys.layout.n_coords, Vec::len);
-    for row in a.iter_mut() {
-        let s = row.iter().fold(0.0f64, |x, v| x.max(v.abs()));
-        if s > 0.0 {
-            row.iter_mut().for_each(|v| *v /= s);
-        }
-    }
-    // Reduced rows with their pivot columns, by full pivoting (as `eliminate`).
-    let mut pivots: Vec<(usize, Vec<f64>)> = Vec::new();
-    let mut rest = a;
-    loop {
-        let mut best = (1e-9, usize::MAX, 0);
-        for (i, row) in rest.iter().enumerate() {
-            for (j, v) in row.iter().enumerate() {
-                if v.abs() > best.0 {
-                    best = (v.abs(), i, j);
-                }
-            }
-        }
-        if best.1 == usize::MAX {
-            break;
-        }
-        let (_, pi, pj) = best;
-        let pivot = rest.swap_remove(pi);
-        for row in rest.iter_mut() {
-            let f = row[pj] / pivot[pj];
-            if f != 0.0 {
-                row.iter_mut().zip(&pivot).for_each(|(x, p)| *x -= f * p);
-            }
-        }
-        pivots.push((pj, pivot));
-    }
+    let n = 6 * sys.layout.n_nodes + sys.layout.n_coords;
+    scale_rows(&mut a, n);
+    scale_columns(&mut a, n);
+    let pivots = reduce(&mut a, n, 1e-9);
     coords
         .iter()
         .map(|&c| {
             let mut e = vec![0.0; n];
             e[6 * sys.layout.n_nodes + c] = 1.0;
-            for (pj, pivot) in &pivots {
-                let f = e[*pj] / pivot[*pj];
+            for (pivot, &pj) in a.iter().zip(&pivots) {
+                let f = e[pj] / pivot[pj];
                 if f != 0.0 {
                     e.iter_mut().zip(pivot).for_each(|(x, p)| *x -= f * p);
                 }
@@ -139,144 +109,111 @@ pub fn determined_coords(sys: &System, state: &State, coords: &[usize]) -> Vec<b
         .collect()
 }
 
-/// Solves the dense system `a x = b` (`a` row-major, `n × n`, overwritten) that is singular
-/// because some of its rows depend on others — a Newton matrix whose constraint rows are
-/// redundant — and consistent to first order: Gaussian elimination with full pivoting on the
-/// equilibrated matrix stops at its numerical rank (pivots below `1e-10` of the largest
-/// entry), the remaining unknowns are set to zero, the dependent rows dropped. The unknowns
-/// every solution shares (a mechanism's motion) come out exact; of those that differ (the
-/// multipliers of redundant rows), one solution.
-pub fn solve_consistent(a: &mut [f64], n: usize, b: &[f64]) -> Vec<f64> {
-    let mut rhs = b.to_vec();
-    let mut col_scale = vec![1.0; n];
-    equilibrate(a, n, &mut rhs, &mut col_scale);
-    let mut cols: Vec<usize> = (0..n).collect();
-    let mut rank = 0;
-    while rank < n {
-        let (mut big, mut pi, mut pj) = (0.0, rank, rank);
-        for i in rank..n {
-            for j in rank..n {
-                if a[i * n + j].abs() > big {
-                    (big, pi, pj) = (a[i * n + j].abs(), i, j);
-                }
-            }
-        }
-        if big <= 1e-10 {
-            break;
-        }
-        swap_rows(a, n, rank, pi);
-        rhs.swap(rank, pi);
-        for row in a.chunks_mut(n) {
-            row.swap(rank, pj);
-        }
-        cols.swap(rank, pj);
-        for i in rank + 1..n {
-            let f = a[i * n + rank] / a[rank * n + rank];
-            if f != 0.0 {
-                for j in rank..n {
-                    a[i * n + j] -= f * a[rank * n + j];
-                }
-                rhs[i] -= f * rhs[rank];
-            }
-        }
-        rank += 1;
+/// Solves the dense system `a x = b` (`a` by rows, square) that is singular because some of
+/// its rows depend on others — a Newton matrix whose constraint rows are redundant — and
+/// consistent to first order: elimination with full pivoting of the equilibrated `[a | b]`
+/// stops at its numerical rank (pivots below `1e-10` of the largest entry), the remaining
+/// unknowns are set to zero, the dependent rows dropped. The unknowns every solution shares
+/// (a mechanism's motion) come out exact; of those that differ (the multipliers of
+/// redundant rows), one solution.
+pub fn solve_consistent(mut a: Vec<Vec<f64>>, b: &[f64]) -> Vec<f64> {
+    let n = a.len();
+    for (row, &bi) in a.iter_mut().zip(b) {
+        row.push(bi);
     }
+    scale_rows(&mut a, n);
+    let col_scale = scale_columns(&mut a, n);
+    let pivots = reduce(&mut a, n, 1e-10);
     let mut x = vec![0.0; n];
-    for k in (0..rank).rev() {
-        let sum: f64 = (k + 1..rank).map(|j| a[k * n + j] * x[j]).sum();
-        x[k] = (rhs[k] - sum) / a[k * n + k];
+    for (row, &pj) in a.iter().zip(&pivots).rev() {
+        // Earlier pivots' columns are zero in this row; later ones are solved, free ones 0.
+        let sum: f64 = (0..n).filter(|&j| j != pj).map(|j| row[j] * x[j]).sum();
+        x[pj] = (row[n] - sum) / row[pj];
     }
-    let mut out = vec![0.0; n];
-    for (k, &c) in cols.iter().enumerate() {
-        out[c] = x[k] * col_scale[c];
-    }
-    out
+    x.iter().zip(&col_scale).map(|(v, s)| v / s).collect()
 }
 
-/// Scales `a`'s rows (and `rhs`) and then its columns to unit max-norm; `col_scale` gets the
-/// column factors, by which the solution of the scaled system is multiplied.
-fn equilibrate(a: &mut [f64], n: usize, rhs: &mut [f64], col_scale: &mut [f64]) {
-    for (row, r) in a.chunks_mut(n).zip(rhs.iter_mut()) {
-        let s = row.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+/// Scales each row of `a` to unit max-norm over its first `n` entries (the rest of the row,
+/// a right-hand side, with them).
+fn scale_rows(a: &mut [Vec<f64>], n: usize) {
+    for row in a.iter_mut() {
+        let s = row[..n].iter().fold(0.0f64, |x, v| x.max(v.abs()));
         if s > 0.0 {
             row.iter_mut().for_each(|v| *v /= s);
-            *r /= s;
-        }
-    }
-    for (j, scale) in col_scale.iter_mut().enumerate() {
-        let s = (0..n).fold(0.0f64, |m, i| m.max(a[i * n + j].abs()));
-        if s > 0.0 {
-            (0..n).for_each(|i| a[i * n + j] /= s);
-            *scale = 1.0 / s;
         }
     }
 }
 
-fn swap_rows(a: &mut [f64], n: usize, i: usize, k: usize) {
-    if i != k {
-        let (lo, hi) = (i.min(k), i.max(k));
-        let (top, bottom) = a.split_at_mut(hi * n);
-        top[lo * n..lo * n + n].swap_with_slice(&mut bottom[..n]);
-    }
+/// Scales each of the first `n` columns of `a` to unit max-norm; returns the divisors (the
+/// scaled system's unknowns are the originals times them).
+fn scale_columns(a: &mut [Vec<f64>], n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|c| {
+            let s = a.iter().fold(0.0f64, |x, row| x.max(row[c].abs()));
+            if s > 0.0 {
+                a.iter_mut().for_each(|row| row[c] /= s);
+                s
+            } else {
+                1.0
+            }
+        })
+        .collect()
 }
 
-/// The dependences among rows `a` (original row numbers `rows`).
+/// Gaussian elimination with full pivoting over the first `n` columns of the rows `a`, in
+/// place, to their numerical rank (pivots above `tol`); the columns past `n` ride along (the
+/// combinations of `[B | I]`, the right-hand side of `[A | b]`). Rows `..rank` become the
+/// pivot rows, each reduced against those before it, their columns returned in order; rows
+/// `rank..` are what is left of the others (the dependent ones, zero to `tol`).
+fn reduce(a: &mut [Vec<f64>], n: usize, tol: f64) -> Vec<usize> {
+    let mut col_used = vec![false; n];
+    let mut pivots = Vec::new();
+    for rank in 0..a.len() {
+        let mut best = (tol, usize::MAX, 0);
+        for (i, row) in a.iter().enumerate().skip(rank) {
+            for (j, v) in row[..n].iter().enumerate() {
+                if !col_used[j] && v.abs() > best.0 {
+                    best = (v.abs(), i, j);
+                }
+            }
+        }
+        if best.1 == usize::MAX {
+            break;
+        }
+        let (_, pi, pj) = best;
+        a.swap(rank, pi);
+        col_used[pj] = true;
+        let (pivot, rest) = a[rank..].split_first_mut().expect("row `rank` exists");
+        for row in rest {
+            let f = row[pj] / pivot[pj];
+            if f != 0.0 {
+                row.iter_mut()
+                    .zip(pivot.iter())
+                    .for_each(|(x, p)| *x -= f * p);
+            }
+        }
+        pivots.push(pj);
+    }
+    pivots
+}
+
+/// The dependences among rows `a` (original row numbers `rows`): elimination on `[B | I]`,
+/// whose rows left over hold, in their `I` part, the combinations of rows that vanish.
 fn eliminate(sys: &System, mut a: Vec<Vec<f64>>, rows: &[usize]) -> Vec<Dependence> {
     let m = a.len();
     if m == 0 {
         return vec![];
     }
     let n = a[0].len();
-    for row in a.iter_mut() {
-        let s = row.iter().fold(0.0f64, |x, v| x.max(v.abs()));
-        if s > 0.0 {
-            row.iter_mut().for_each(|v| *v /= s);
-        }
+    scale_rows(&mut a, n);
+    scale_columns(&mut a, n);
+    for (i, row) in a.iter_mut().enumerate() {
+        row.extend((0..m).map(|j| if i == j { 1.0 } else { 0.0 }));
     }
-    for c in 0..n {
-        let s = a.iter().fold(0.0f64, |x, row| x.max(row[c].abs()));
-        if s > 0.0 {
-            a.iter_mut().for_each(|row| row[c] /= s);
-        }
-    }
-    let mut comb: Vec<Vec<f64>> = (0..m)
-        .map(|i| (0..m).map(|j| if i == j { 1.0 } else { 0.0 }).collect())
-        .collect();
-    let mut col_used = vec![false; n];
-    let tol = 1e-9;
-    let mut rank = 0;
-    while rank < m {
-        let mut best = (0.0, 0, 0);
-        for (i, row) in a.iter().enumerate().skip(rank) {
-            for (j, v) in row.iter().enumerate() {
-                if !col_used[j] && v.abs() > best.0 {
-                    best = (v.abs(), i, j);
-                }
-            }
-        }
-        if best.0 <= tol {
-            break;
-        }
-        let (_, pi, pj) = best;
-        a.swap(rank, pi);
-        comb.swap(rank, pi);
-        col_used[pj] = true;
-        let (pivot_row, pivot_comb) = (a[rank].clone(), comb[rank].clone());
-        for i in rank + 1..m {
-            let f = a[i][pj] / pivot_row[pj];
-            if f != 0.0 {
-                for (x, p) in a[i].iter_mut().zip(&pivot_row) {
-                    *x -= f * p;
-                }
-                for (x, p) in comb[i].iter_mut().zip(&pivot_comb) {
-                    *x -= f * p;
-                }
-            }
-        }
-        rank += 1;
-    }
-    comb[rank..]
+    let rank = reduce(&mut a, n, 1e-9).len();
+    a[rank..]
         .iter()
+        .map(|row| &row[n..])
         .map(|c| {
             let big = c.iter().fold(0.0f64, |x, v| x.max(v.abs()));
             let mut owners: Vec<String> = Vec::new();
@@ -301,8 +238,8 @@ mod tests {
     #[test]
     fn a_redundant_consistent_system_gets_its_unique_motion_and_a_valid_force() {
         let (k, f) = (5.0e3, 40.0);
-        let mut a = vec![k, 1.0, 2.0, 1.0, 0.0, 0.0, 2.0, 0.0, 0.0];
-        let x = solve_consistent(&mut a, 3, &[f, 0.3, 0.6]);
+        let a = vec![vec![k, 1.0, 2.0], vec![1.0, 0.0, 0.0], vec![2.0, 0.0, 0.0]];
+        let x = solve_consistent(a, &[f, 0.3, 0.6]);
         assert!((x[0] - 0.3).abs() < 1e-14, "{x:?}");
         // Round-off of the entries' scale (k · 1e-16 relative).
         assert!(
@@ -315,12 +252,17 @@ mod tests {
     /// A regular system is solved as by any LU (full rank: nothing dropped).
     #[test]
     fn a_regular_system_is_solved_exactly() {
-        let mut a = vec![4.0, -2.0, 1.0, -2.0, 4.0, -2.0, 1.0, -2.0, 4.0];
+        let a = vec![
+            vec![4.0, -2.0, 1.0],
+            vec![-2.0, 4.0, -2.0],
+            vec![1.0, -2.0, 4.0],
+        ];
         let want = [1.0, -2.0, 0.5];
-        let b: Vec<f64> = (0..3)
-            .map(|i| (0..3).map(|j| a[3 * i + j] * want[j]).sum())
+        let b: Vec<f64> = a
+            .iter()
+            .map(|row| row.iter().zip(want).map(|(r, w)| r * w).sum())
             .collect();
-        let x = solve_consistent(&mut a, 3, &b);
+        let x = solve_consistent(a, &b);
         for (got, w) in x.iter().zip(want) {
             assert!((got - w).abs() < 1e-14, "{x:?}");
         }
