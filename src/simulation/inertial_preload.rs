@@ -38,7 +38,8 @@ pub(super) fn preload(
     settings: &SimulationSettings,
     state: &mut State,
 ) -> Result<(), String> {
-    let accelerations = rigid_accelerations(model, settings, state, Drives::AsGiven)?;
+    let rigid = rigid_system(model)?;
+    let accelerations = rigid_accelerations(&rigid, settings, state, Drives::AsGiven)?;
     preload_with(model, system, state, &accelerations, MOVING_ELASTIC)
 }
 
@@ -64,7 +65,8 @@ pub(super) fn preload_at_rest(
     settings: &SimulationSettings,
     state: &mut State,
 ) -> Result<bool, String> {
-    let by_itself = rigid_accelerations(model, settings, state, Drives::Held)?;
+    let rigid = rigid_system(model)?;
+    let by_itself = rigid_accelerations(&rigid, settings, state, Drives::Held)?;
     let l = system.length_ref;
     let moves = by_itself
         .iter()
@@ -80,11 +82,11 @@ pub(super) fn preload_at_rest(
         .iter()
         .any(|d| d.function.accel(state.t).abs() > DRIVE_AT_REST);
     let accelerations = if accelerating {
-        rigid_accelerations(model, settings, state, Drives::AsGiven)?
+        rigid_accelerations(&rigid, settings, state, Drives::AsGiven)?
     } else {
         vec![(V3::zero(), V3::zero()); by_itself.len()]
     };
-    let held = holding_free_coordinates(model, system, state)?;
+    let held = holding_free_coordinates(model, system, &rigid, state);
     preload_with(&held, system, state, &accelerations, AT_REST_ELASTIC)?;
     Ok(true)
 }
@@ -100,10 +102,9 @@ pub(super) fn preload_at_rest(
 fn holding_free_coordinates(
     model: &Model,
     system: &System,
+    rigid: &System,
     state: &State,
-) -> Result<Model, String> {
-    let rigid = compile::compile(&rigidified(model), Scheme::Ep)
-        .map_err(|e| format!("the rigidified mechanism does not compile: {}", e.0[0]))?;
+) -> Model {
     let free: Vec<usize> = system
         .joint_info
         .iter()
@@ -117,7 +118,7 @@ fn holding_free_coordinates(
     let mut at = rigid.initial.clone();
     at.nodes.clone_from(&state.nodes);
     at.coords.clone_from(&state.coords);
-    let determined = crate::system::redundancy::determined_coords(&rigid, &at, &free);
+    let determined = crate::system::redundancy::determined_coords(rigid, &at, &free);
     let held_coords: Vec<usize> = free
         .iter()
         .zip(&determined)
@@ -137,7 +138,7 @@ fn holding_free_coordinates(
             }
         }
     }
-    Ok(held)
+    held
 }
 
 /// A drive's acceleration (m/s² or rad/s²) below which it is at rest: round-off of an
@@ -210,15 +211,22 @@ fn static_solve_of(model: &Model, state: &State) -> Result<Simulation, SimError>
 /// A node's acceleration and material angular acceleration.
 type Acceleration = (V3<f64>, V3<f64>);
 
-/// Each node's acceleration and material angular acceleration in the rigidified mechanism.
+/// The rigidified mechanism of `model` (see [`rigidified`]), compiled.
+fn rigid_system(model: &Model) -> Result<System, String> {
+    compile::compile(&rigidified(model), Scheme::Ep)
+        .map_err(|e| format!("the rigidified mechanism does not compile: {}", e.0[0]))
+}
+
+/// Each node's acceleration and material angular acceleration in the rigidified mechanism
+/// `rigid`.
 fn rigid_accelerations(
-    model: &Model,
+    rigid: &System,
     settings: &SimulationSettings,
     state: &State,
     drives: Drives,
 ) -> Result<Vec<Acceleration>, String> {
-    let mut rigid = compile::compile(&rigidified(model), Scheme::Ep)
-        .map_err(|e| format!("the rigidified mechanism does not compile: {}", e.0[0]))?;
+    // Its own copy: the drives may be held, and the frictions start in their modes.
+    let mut rigid = rigid.clone();
     if drives == Drives::Held {
         for d in &mut rigid.drives {
             d.function = TimeFunction::Constant(d.function.value(state.t));
