@@ -178,13 +178,10 @@ pub struct Integrator {
     /// Modified Newton: keep the LU factors across iterations and steps of the same size
     /// while the iteration contracts fast enough (see `contraction_too_slow`).
     pub modified_newton: bool,
-    /// Whether a singular Newton matrix is solved as a consistent system with redundant
-    /// constraint rows (dense, [`redundancy::solve_consistent`]) instead of failing the step:
-    /// for the rigidified mechanism of a pre-load only, whose rigid beams over-constrain the
-    /// loops their flexibility closed (a slider-crank's rod between parallel pins).
-    ///
-    /// [`redundancy::solve_consistent`]: crate::system::redundancy::solve_consistent
-    pub solve_redundant: bool,
+    /// Whether the constraint rows may be redundant — the rigidified mechanism of a pre-load,
+    /// whose rigid beams over-constrain the loops their flexibility closed (a slider-crank's
+    /// rod between parallel pins): see [`Self::regularize_multipliers`].
+    pub redundant_rows: bool,
     /// The step size the current LU factors were computed for (None: no valid factors).
     factored_for: Option<f64>,
     /// Whether the last step converged, so its factors may start the next one.
@@ -426,7 +423,7 @@ impl Integrator {
             pattern_misses: 0,
             pattern_rebuilds: 0,
             modified_newton: false,
-            solve_redundant: false,
+            redundant_rows: false,
             factored_for: None,
             last_converged: false,
             started_stale: false,
@@ -715,6 +712,9 @@ impl Integrator {
     fn assemble_for(&mut self, sys: &System, ctx: &StepCtx, tangent: Option<Factors>) {
         let started = self.timings.start();
         self.assemble_kernels(sys, ctx, tangent);
+        if self.redundant_rows && tangent == Some(Factors::Exact) {
+            self.regularize_multipliers(sys, ctx);
+        }
         let phase = if tangent.is_some() {
             Phase::Tangents
         } else {
@@ -949,6 +949,19 @@ impl Integrator {
                 self.matrix
                     .add_to_diagonal(d + c, if c < 3 { k } else { kr });
             }
+        }
+    }
+
+    /// Redundant constraint rows make the Newton matrix singular in their multipliers only
+    /// (the motion stays unique). `−1e-8 s` on every multiplier's diagonal — a compliance a
+    /// hundred-millionth of the inertia's at the step — keeps the LU regular; like
+    /// [`Self::regularize_static`] it changes the Newton direction only, never the residual,
+    /// so Newton converges to the constraints themselves, the redundant rows' multipliers to
+    /// one of their solutions.
+    fn regularize_multipliers(&mut self, sys: &System, ctx: &StepCtx) {
+        for r in 0..sys.layout.n_rows {
+            self.matrix
+                .add_to_diagonal(ctx.layout.mult(r), -1e-8 * ctx.s);
         }
     }
 
@@ -1351,48 +1364,12 @@ impl Integrator {
             // The kind the tangent was assembled for, before the lifetimes change.
             let kind = self.fresh_factors(ctx);
             self.note_lifetime(kind, self.factors_fit(ctx));
-            // The LU's static pivots leave a singular matrix's update non-finite.
-            let before = self
-                .solve_redundant
-                .then(|| (self.y.clone(), self.res.clone()));
-            match (self.solve_update(kind), before) {
-                (Ok(()), Some((y, res))) if self.res.iter().any(|v| !v.is_finite()) => {
-                    (self.y, self.res) = (y, res);
-                    self.solve_redundant_update();
-                }
-                (Ok(()), _) => {
-                    self.factored_for = Some(ctx.h);
-                    self.factored_this_solve = true;
-                }
-                (Err(_), Some(_)) => self.solve_redundant_update(),
-                (Err(reason), None) => return Err(step_failure(ctx, reason, true)),
-            }
+            self.solve_update(kind)
+                .map_err(|reason| step_failure(ctx, reason, true))?;
+            self.factored_for = Some(ctx.h);
+            self.factored_this_solve = true;
         }
         Ok(())
-    }
-
-    /// The update from the assembled (singular) Newton matrix as a consistent system with
-    /// redundant constraint rows: unique in the motion unknowns, one of the solutions in the
-    /// multipliers of the redundant rows. Dense, O(n³): for a one-off solve (see
-    /// `solve_redundant`). The update stays in `res`, as after a back-substitution.
-    fn solve_redundant_update(&mut self) {
-        let started = self.timings.start();
-        let (col_ptr, row_idx) = self.matrix.pattern();
-        let n = col_ptr.len() - 1;
-        let mut dense = vec![vec![0.0; n]; n];
-        for j in 0..n {
-            for p in col_ptr[j]..col_ptr[j + 1] {
-                dense[row_idx[p]][j] += self.matrix.values[p];
-            }
-        }
-        let update = crate::system::redundancy::solve_consistent(dense, &self.res);
-        for ((y, r), d) in self.y.iter_mut().zip(self.res.iter_mut()).zip(&update) {
-            *y -= d;
-            *r = *d;
-        }
-        self.solves += 1;
-        self.factored_for = None;
-        self.timings.add(Phase::Solves, started);
     }
 
     /// Whether the update just applied (left in `res` by the solve) moved every node by

@@ -80,57 +80,97 @@ pub fn can_stick(sys: &System, state: &State, k: usize) -> bool {
     eliminate(sys, a, &rows).is_empty()
 }
 
-/// Which of the coordinates `coords` the constraint rows of `sys` at `state` determine: the
-/// unit row of a coordinate's rate is a combination of the rows (the mechanism cannot move
-/// it by itself), or it is not (a free degree of freedom, a collar's η on a rigid beam).
-/// One elimination of the rows, then each coordinate's row reduced against them.
+/// Which of the coordinates `coords` the mechanism of `sys` at `state` determines with its
+/// beams made rigid: the unit row of a coordinate's rate is a combination of the constraint
+/// rows (the rigid mechanism cannot move it by itself: a connecting rod's pins), or it is not
+/// (a free degree of freedom, a collar's η on a rigid beam). A rigid beam's nodes move with
+/// its first node, `v_k = v_m + ω_m × (x_k − x_m)`, `ω_k = ω_m`, so each row's terms on them
+/// fold onto that node's columns: only the joints' and drives' rows remain, and one
+/// rank-revealing factorization of them (faer's full pivoting, `P B Qᵀ = L U`) decides.
 pub fn determined_coords(sys: &System, state: &State, coords: &[usize]) -> Vec<bool> {
     let mut a = constraint_matrix(sys, state);
     for f in &sys.frictions {
         a[f.row].iter_mut().for_each(|v| *v = 0.0);
     }
     let n = 6 * sys.layout.n_nodes + sys.layout.n_coords;
+    fold_rigid_beams(sys, state, &mut a);
+    if a.is_empty() {
+        return vec![false; coords.len()];
+    }
     scale_rows(&mut a, n);
     scale_columns(&mut a, n);
-    let pivots = reduce(&mut a, n, 1e-9);
+    let lu = faer::Mat::from_fn(a.len(), n, |i, j| a[i][j]).full_piv_lu();
+    let u = lu.U();
+    let rank = numerical_rank(u);
+    let (q, _) = lu.Q().arrays();
     coords
         .iter()
         .map(|&c| {
-            let mut e = vec![0.0; n];
-            e[6 * sys.layout.n_nodes + c] = 1.0;
-            for (pivot, &pj) in a.iter().zip(&pivots) {
-                let f = e[pj] / pivot[pj];
-                if f != 0.0 {
-                    e.iter_mut().zip(pivot).for_each(|(x, p)| *x -= f * p);
-                }
+            let col = 6 * sys.layout.n_nodes + c;
+            let Some(at) = q[..rank].iter().position(|&k| k == col) else {
+                return false; // outside the pivot columns: the rows leave it free
+            };
+            // Uᵀ y = e_at over the leading block; the coordinate's row is in the rows' span
+            // if yᵀ U vanishes on the columns past it.
+            let mut y = vec![0.0; rank];
+            for i in at..rank {
+                let v = if i == at { 1.0 } else { 0.0 };
+                let sum: f64 = (at..i).map(|k| u[(k, i)] * y[k]).sum();
+                y[i] = (v - sum) / u[(i, i)];
             }
-            e.iter().all(|v| v.abs() <= 1e-9)
+            let size = y.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+            (rank..n).all(|j| {
+                let r: f64 = (at..rank).map(|k| u[(k, j)] * y[k]).sum();
+                r.abs() <= 1e-8 * size
+            })
         })
         .collect()
 }
 
-/// Solves the dense system `a x = b` (`a` by rows, square) that is singular because some of
-/// its rows depend on others — a Newton matrix whose constraint rows are redundant — and
-/// consistent to first order: elimination with full pivoting of the equilibrated `[a | b]`
-/// stops at its numerical rank (pivots below `1e-10` of the largest entry), the remaining
-/// unknowns are set to zero, the dependent rows dropped. The unknowns every solution shares
-/// (a mechanism's motion) come out exact; of those that differ (the multipliers of
-/// redundant rows), one solution.
-pub fn solve_consistent(mut a: Vec<Vec<f64>>, b: &[f64]) -> Vec<f64> {
-    let n = a.len();
-    for (row, &bi) in a.iter_mut().zip(b) {
-        row.push(bi);
+/// Folds each row's terms on a beam's nodes onto the beam's first node (see
+/// [`determined_coords`]); beams joined by their elements' shared nodes move as one.
+fn fold_rigid_beams(sys: &System, state: &State, a: &mut [Vec<f64>]) {
+    let mut master: Vec<usize> = (0..sys.layout.n_nodes).collect();
+    let root = |master: &[usize], mut k: usize| {
+        while master[k] != k {
+            k = master[k];
+        }
+        k
+    };
+    for b in &sys.beams {
+        for &k in &b.nodes[1..] {
+            let (rk, r0) = (root(&master, k), root(&master, b.nodes[0]));
+            if rk != r0 {
+                master[rk.max(r0)] = rk.min(r0);
+            }
+        }
     }
-    scale_rows(&mut a, n);
-    let col_scale = scale_columns(&mut a, n);
-    let pivots = reduce(&mut a, n, 1e-10);
-    let mut x = vec![0.0; n];
-    for (row, &pj) in a.iter().zip(&pivots).rev() {
-        // Earlier pivots' columns are zero in this row; later ones are solved, free ones 0.
-        let sum: f64 = (0..n).filter(|&j| j != pj).map(|j| row[j] * x[j]).sum();
-        x[pj] = (row[n] - sum) / row[pj];
+    for k in 0..sys.layout.n_nodes {
+        let m = root(&master, k);
+        if m == k {
+            continue;
+        }
+        let d = state.nodes[k].x - state.nodes[m].x;
+        for row in a.iter_mut() {
+            let bv = crate::math::vec3::V3([row[6 * k], row[6 * k + 1], row[6 * k + 2]]);
+            let turn = d.cross(&bv);
+            for c in 0..3 {
+                row[6 * m + c] += bv.0[c];
+                row[6 * m + 3 + c] += row[6 * k + 3 + c] + turn.0[c];
+            }
+            row[6 * k..6 * k + 6].iter_mut().for_each(|v| *v = 0.0);
+        }
     }
-    x.iter().zip(&col_scale).map(|(v, s)| v / s).collect()
+}
+
+/// The numerical rank of a full-pivoting LU's `U`: its diagonal (non-increasing in
+/// magnitude) down to `1e-10` of its first entry, the rows and columns equilibrated before.
+fn numerical_rank(u: faer::MatRef<'_, f64>) -> usize {
+    let k = u.nrows().min(u.ncols());
+    let first = if k > 0 { u[(0, 0)].abs() } else { 0.0 };
+    (0..k)
+        .take_while(|&i| u[(i, i)].abs() > 1e-10 * first && first > 0.0)
+        .count()
 }
 
 /// Scales each row of `a` to unit max-norm over its first `n` entries (the rest of the row,
@@ -226,45 +266,4 @@ fn eliminate(sys: &System, mut a: Vec<Vec<f64>>, rows: &[usize]) -> Vec<Dependen
             Dependence { owners }
         })
         .collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::solve_consistent;
-
-    /// A mass on a line held by the same constraint twice (`x = 0.3` as rows 2 and 3, the
-    /// second scaled): `[[k, 1, 2], [1, 0, 0], [2, 0, 0]] [x, μ₁, μ₂] = [f, 0.3, 0.6]`. Singular,
-    /// consistent; x is unique (0.3) and the multipliers satisfy `μ₁ + 2μ₂ = f − k x`.
-    #[test]
-    fn a_redundant_consistent_system_gets_its_unique_motion_and_a_valid_force() {
-        let (k, f) = (5.0e3, 40.0);
-        let a = vec![vec![k, 1.0, 2.0], vec![1.0, 0.0, 0.0], vec![2.0, 0.0, 0.0]];
-        let x = solve_consistent(a, &[f, 0.3, 0.6]);
-        assert!((x[0] - 0.3).abs() < 1e-14, "{x:?}");
-        // Round-off of the entries' scale (k · 1e-16 relative).
-        assert!(
-            (x[1] + 2.0 * x[2] - (f - k * 0.3)).abs() < 1e-9 * k,
-            "{x:?}"
-        );
-        assert!(x.iter().all(|v| v.is_finite()));
-    }
-
-    /// A regular system is solved as by any LU (full rank: nothing dropped).
-    #[test]
-    fn a_regular_system_is_solved_exactly() {
-        let a = vec![
-            vec![4.0, -2.0, 1.0],
-            vec![-2.0, 4.0, -2.0],
-            vec![1.0, -2.0, 4.0],
-        ];
-        let want = [1.0, -2.0, 0.5];
-        let b: Vec<f64> = a
-            .iter()
-            .map(|row| row.iter().zip(want).map(|(r, w)| r * w).sum())
-            .collect();
-        let x = solve_consistent(a, &b);
-        for (got, w) in x.iter().zip(want) {
-            assert!((got - w).abs() < 1e-14, "{x:?}");
-        }
-    }
 }
