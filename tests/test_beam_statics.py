@@ -399,3 +399,28 @@ def test_offset_centre_of_mass_twists_a_cantilever_under_gravity():
     assert float(s["tip_u.z"]) == pytest.approx(
         -(q * length**4 / (8 * ei) + q * length**2 / (2 * ga)), rel=1e-4
     )
+
+
+def test_statics_with_a_free_contact_point_names_it_and_the_ways_out():
+    # A 0.5 kg collar on a steel tube clamped at one end and pinned at the other, gravity
+    # across: its contact point η is free, and nothing restrains it while the tube is still
+    # straight (the first load step's matrix is singular along η). Before, the error named a
+    # beam node's force and nothing else; now it names the joint and the two ways out, and a
+    # spring along the beam (one of them) lets the same statics converge.
+    def collar_on_tube(spring=None):
+        m = fd.Model("collar on a tube", gravity=[0, 0, -9.81])
+        steel = {"E": 2.1e11, "G": 8.1e10, "density": 7850}
+        tube = {"material": steel, "shape": {"tube": {"diameter": 0.03, "wall": 0.003}}}
+        m.beam("tube", [0, 0, 0], [1.0, 0, 0], elements=8, section=tube)
+        m.clamp("root", "ground", "tube.start")
+        m.spherical("bearing", "ground", "tube.end")
+        m.node("c", [0.3, 0, 0]).body("collar", "c", mass=0.5, inertia=[2e-4, 1e-4, 1e-4])
+        m.sliding("ring", beam="tube", follower="c", eta=0.3, spring=spring)
+        return m
+
+    with pytest.raises(fd.SolverError) as e:
+        fd.solve_static(collar_on_tube())
+    message = str(e.value)
+    assert "`ring`" in message and "`drive`" in message and "`spring`" in message
+    held = fd.solve_static(collar_on_tube(spring={"stiffness": 100.0, "rest": 0.3}))
+    assert held.sizes["load_factor"] >= 2  # the unloaded state and the converged load

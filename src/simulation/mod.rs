@@ -290,9 +290,41 @@ impl Simulation {
             let result = self.advance_load(target, 0);
             self.integrator.timings.add_total(started);
             self.update_stats();
-            result?;
+            result.map_err(|mut e| {
+                e.reason.push_str(&self.free_contacts_hint());
+                e
+            })?;
         }
         Ok(())
+    }
+
+    /// For a failed static solve: the sliding joints whose contact point η is free (no drive,
+    /// no spring). Statics must also find where such a follower rests along the beam, and
+    /// while nothing acts along the beam yet (a straight beam at the first load step) η has
+    /// no stiffness at all: a drive or a spring gives it one. Empty without such joints.
+    fn free_contacts_hint(&self) -> String {
+        let free: Vec<String> = self
+            .system
+            .joint_info
+            .iter()
+            .filter(|info| self.system.joints[info.kernel].as_sliding().is_some())
+            .filter(|info| {
+                info.coords
+                    .iter()
+                    .any(|c| c.drive.is_none() && c.spring.is_none())
+            })
+            .map(|info| format!("`{}`", info.name))
+            .collect();
+        if free.is_empty() {
+            return String::new();
+        }
+        format!(
+            "; the contact point η of sliding joint(s) {} is free (no drive, no spring): a \
+             static solve must also find where along the beam the follower comes to rest, and \
+             nothing restrains η while nothing acts along the beam — prescribe it (`drive`) \
+             or give it a `spring` along the beam",
+            free.join(", ")
+        )
     }
 
     /// Linearization about the current (static) state for modal analysis: the static tangent
