@@ -638,8 +638,10 @@ class Model:
         max_shrink, max_step_halvings; Newton's newton_tol, newton_increment_tol,
         max_newton_iterations, modified_newton; load_steps (static); preload (True: start a dynamic
         run from the static equilibrium at t = 0; False: start the beams unstrained, as given;
-        unset: a structure at rest under gravity or loads starts in its static equilibrium,
-        anything else as given); inertial_preload (default True: beams that
+        unset: a model at rest under gravity, loads or joint springs off their rest starts with
+        its beams in equilibrium with them — a structure in its static equilibrium, a mechanism
+        that moves by itself bent by the loads of the motion it starts —, anything else as
+        given); inertial_preload (default True: beams that
         drives moving at t = 0 carry along start strained by that motion's inertial loads);
         timings (record where the run's wall time goes, phase by phase, in the statistics:
         `ds.flexdyn.timing_report()`)."""

@@ -1229,8 +1229,10 @@ pub struct SimulationSettings {
     /// Dynamic analysis: `true` starts from the static equilibrium under the loads and
     /// gravity at t = 0 (solved with `load_steps`), with the given velocities made consistent
     /// there; `false` starts the beams unstrained, as given (a release). Unset (the default):
-    /// a structure at rest under gravity or loads at t = 0 starts in its static equilibrium,
-    /// anything else as given (see `simulation::inertial_preload::preload_at_rest`).
+    /// a model at rest under gravity, loads or joint springs off their rest at t = 0 starts
+    /// with its beams in equilibrium with them — a structure in its static equilibrium, a
+    /// mechanism that moves by itself bent by the loads of the motion it starts —, anything
+    /// else as given (see `simulation::inertial_preload::preload_at_rest`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub preload: Option<bool>,
     /// Dynamic analysis: when drives already move at t = 0 and carry beams along, start the

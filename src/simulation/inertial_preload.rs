@@ -51,44 +51,53 @@ pub(super) fn preload(
 const MOVING_ELASTIC: f64 = 1e-2;
 const AT_REST_ELASTIC: f64 = 0.1;
 
-/// A model at rest whose beams carry gravity or loads at t = 0 (a boom with a carriage, a
-/// tower, a rotor before its spin-up): if its rigidified mechanism, its drives held, stays at
-/// rest too — a structure, whose supports and drives take the loads — its beams start in
-/// their static equilibrium instead of unstrained (they rang about their static deflection
-/// for the whole run: a 20 kg carriage on a 2 m steel cantilever, ±14 mm about its 10 mm
-/// sag), and `Ok(true)`. With them the d'Alembert loads of drives accelerating from rest at
-/// t = 0 (a pitch bearing's `sin · smoothstep`). `Ok(false)`, the state untouched, where the
-/// mechanism moves by itself (a beam pendulum released from rest starts unstrained, as given).
+/// A model at rest whose beams carry gravity, loads or joint springs off their rest at t = 0
+/// starts with its beams in quasi-static equilibrium with those loads.
+/// - If its rigidified mechanism, its drives held, stays at rest too — a structure, whose
+///   supports and drives take the loads (a boom with a carriage, a tower, a rotor before its
+///   spin-up) — that is its static equilibrium: started unstrained, its beams rang about their
+///   static deflection for the whole run (a 20 kg carriage on a 2 m steel cantilever, ±14 mm
+///   about its 10 mm sag). With it the d'Alembert loads of drives accelerating from rest at
+///   t = 0 (a pitch bearing's `sin · smoothstep`).
+/// - If it moves by itself (a pendulum released, a boom deployed by its hinge springs), the
+///   loads of the motion it starts are added, as for a moving start ([`preload`]): its beams
+///   start strained by the accelerations of their rigid motion. Unstrained, a spring's torque
+///   was a step load on the panels it drives, and their ring set every step (a three-panel
+///   boom: 5 206 steps of its first second, the first 1.7 µs long).
+///
+/// The coordinates the rigid mechanism leaves free are held where they are for the static
+/// solve; the loads balance on its motions, so holding them takes no reaction.
 pub(super) fn preload_at_rest(
     model: &Model,
     system: &System,
     settings: &SimulationSettings,
     state: &mut State,
-) -> Result<bool, String> {
+) -> Result<(), String> {
     let rigid = rigid_system(model)?;
     let by_itself = rigid_accelerations(&rigid, settings, state, Drives::Held)?;
     let l = system.length_ref;
     let moves = by_itself
         .iter()
         .any(|(a, w_dot)| a.norm() + w_dot.norm() * l > AT_REST);
-    if moves {
-        return Ok(false);
-    }
-    // Without accelerating drives, the static equilibrium itself: the rigidified
+    // Without motion or accelerating drives, the static equilibrium itself: the rigidified
     // accelerations are round-off, whose d'Alembert loads would only strain the beams off it
     // (a cantilever at 30° to x bent sideways by 2e-5 of its sag moment).
     let accelerating = system
         .drives
         .iter()
         .any(|d| d.function.accel(state.t).abs() > DRIVE_AT_REST);
-    let accelerations = if accelerating {
+    let accelerations = if moves || accelerating {
         rigid_accelerations(&rigid, settings, state, Drives::AsGiven)?
     } else {
         vec![(V3::zero(), V3::zero()); by_itself.len()]
     };
     let held = holding_free_coordinates(model, system, state);
-    preload_with(&held, system, state, &accelerations, AT_REST_ELASTIC)?;
-    Ok(true)
+    let elastic_within = if moves {
+        MOVING_ELASTIC
+    } else {
+        AT_REST_ELASTIC
+    };
+    preload_with(&held, system, state, &accelerations, elastic_within)
 }
 
 /// `model` with every joint coordinate that no drive prescribes and the rigidified mechanism

@@ -246,11 +246,17 @@ pub fn unstrained_start(system: &System, state: &State, preload: bool) -> Option
 }
 
 /// The model's beams (their names, listed) if it starts at rest — no node moving, no
-/// coordinate or drive changing, nothing spun — with gravity or loads on it: a structure
-/// whose beams would start unstrained under them (see `inertial_preload::preload_at_rest`).
+/// coordinate or drive changing, nothing spun — with gravity, loads or a joint spring off its
+/// rest on it: beams that would start unstrained under them (see `inertial_preload::preload_at_rest`).
 pub fn loaded_at_rest(system: &System, state: &State) -> Option<String> {
-    let loaded =
-        system.gravity.norm() > 0.0 || !system.loads.is_empty() || !system.line_loads.is_empty();
+    let sprung = system
+        .springs
+        .iter()
+        .any(|sp| sp.law.force(state.coords[sp.coord]) != 0.0);
+    let loaded = system.gravity.norm() > 0.0
+        || !system.loads.is_empty()
+        || !system.line_loads.is_empty()
+        || sprung;
     let still = |v: V3<f64>| v.norm() == 0.0;
     let at_rest = state.nodes.iter().all(|n| still(n.v) && still(n.w))
         && state.coord_rates.iter().all(|&q| q == 0.0)

@@ -752,10 +752,11 @@ fn initial_state(
     Ok((state, warnings))
 }
 
-/// A structure at rest under gravity or loads at t = 0 starts in its static equilibrium
-/// (`inertial_preload::preload_at_rest`): it would otherwise ring about its static
-/// deflection for the whole run (a 20 kg carriage on a 2 m steel cantilever: ±14 mm about
-/// its 10 mm sag, and five times the steps). A warning if that pre-load fails.
+/// A model at rest under gravity, loads or springs at t = 0 starts with its beams in
+/// equilibrium with them (`inertial_preload::preload_at_rest`): it would otherwise ring about
+/// that deflection (a 20 kg carriage on a 2 m steel cantilever: ±14 mm about its 10 mm sag,
+/// and five times the steps; a spring-deployed boom: 1.7 µs steps). A warning if that
+/// pre-load fails.
 fn start_at_rest_in_equilibrium(
     model: &Model,
     system: &System,
@@ -764,13 +765,12 @@ fn start_at_rest_in_equilibrium(
 ) -> Option<String> {
     let beams = initial_velocities::loaded_at_rest(system, state)?;
     match inertial_preload::preload_at_rest(model, system, settings, state) {
-        Ok(true) => {
+        Ok(()) => {
             initial_velocities::project_initial_velocities(system, state);
             None
         }
-        Ok(false) => None,
         Err(why) => Some(format!(
-            "beam(s) {beams} start unstrained under gravity and the loads at t = 0 and will ring about their static deflection: the pre-load that starts them in equilibrium failed ({why}); `simulation.preload: true` asks for the static equilibrium itself, `preload: false` for this start without this warning"
+            "beam(s) {beams} start unstrained under gravity, the loads and springs at t = 0 and will ring about their deflection under them: the pre-load that starts them in equilibrium failed ({why}); `simulation.preload: true` asks for the static equilibrium itself, `preload: false` for this start without this warning"
         )),
     }
 }
