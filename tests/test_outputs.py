@@ -245,7 +245,9 @@ def test_a_spin_not_given_follows_the_joint_instead_of_kinking_the_beam():
     assert free.flexdyn.warnings == []
     for k in ("wx", "wy", "wz", "vx", "vy", "vz"):
         assert free[f"v.{k}"].values[0] == pytest.approx(free[f"s.{k}"].values[0], abs=1e-9)
-    assert free["v.wz"].values[0] == pytest.approx(0.5, abs=1e-9)
+    # The given spin to 1e-7: the beam starts strained by its tumble's loads, its sections
+    # turned by them, and the velocities are projected again there (measured 3.6e-9).
+    assert free["v.wz"].values[0] == pytest.approx(0.5, abs=1e-7)
     held = collar(angular_velocity=[0, 0, 0])
     assert "`collar`" in held.flexdyn.warnings[0]
     assert held.flexdyn.stats["steps"] > 20 * free.flexdyn.stats["steps"]

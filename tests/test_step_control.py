@@ -167,9 +167,15 @@ def test_modified_newton_reuses_factors_and_reaches_the_same_solution(scheme):
     assert mod["factorizations"] < 0.5 * full["factorizations"]
     trials = mod["steps"] + mod["rejected"]
     assert mod["newton_iterations"] <= mod["linear_solves"] <= mod["newton_iterations"] + trials
-    # Some steps end on an update predicted to balance the forces, their constraints
-    # checked alone (integrator/predicted_stop.rs) — still the same converged steps.
-    assert 0 < mod["predicted_stops"] <= mod["constraint_checks"], mod
+    # Some ED steps end on an update predicted to balance the forces, their constraints
+    # checked alone (integrator/predicted_stop.rs) — still the same converged steps. EP's
+    # kept factors converge in two updates at every step (measured 1000 in 500; 1050 with 50
+    # predicted stops when the beam started unstrained and rang), where none is predicted.
+    assert mod["predicted_stops"] <= mod["constraint_checks"], mod
+    if scheme == "ed":
+        assert mod["predicted_stops"] > 0, mod
+    else:
+        assert mod["newton_iterations"] <= 2.05 * mod["steps"], mod
     assert full["predicted_stops"] == 0  # full Newton keeps no factors to predict from
     # Same converged steps: the energy agrees to the Newton tolerance.
     E = [r["E.total"].values for r in runs]

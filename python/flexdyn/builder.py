@@ -642,7 +642,8 @@ class Model:
         its beams in equilibrium with them — a structure in its static equilibrium, a mechanism
         that moves by itself bent by the loads of the motion it starts —, anything else as
         given); inertial_preload (default True: beams that
-        drives moving at t = 0 carry along start strained by that motion's inertial loads);
+        drives moving at t = 0 carry along, or given a motion of their own, start strained by
+        that motion's inertial loads);
         timings (record where the run's wall time goes, phase by phase, in the statistics:
         `ds.flexdyn.timing_report()`)."""
         given = {k: v for k, v in locals().items() if k != "self" and v is not None}

@@ -1235,10 +1235,10 @@ pub struct SimulationSettings {
     /// else as given (see `simulation::inertial_preload::preload_at_rest`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub preload: Option<bool>,
-    /// Dynamic analysis: when drives already move at t = 0 and carry beams along, start the
-    /// beams in quasi-static equilibrium with that motion's inertial loads (and gravity and
-    /// the loads at t = 0), so they follow smoothly instead of ringing; `false` starts them
-    /// unstrained.
+    /// Dynamic analysis: when drives already move at t = 0 and carry beams along, or beams
+    /// move at t = 0 by given velocities, start the beams in quasi-static equilibrium with
+    /// that motion's inertial loads (and gravity and the loads at t = 0), so they follow
+    /// smoothly instead of ringing; `false` starts them unstrained.
     #[serde(default = "yes")]
     pub inertial_preload: bool,
     /// Adaptive stepping: the most a step may grow over the previous one, and shrink.

@@ -40,7 +40,11 @@ pub(super) fn preload(
 ) -> Result<(), String> {
     let rigid = rigid_system(model)?;
     let accelerations = rigid_accelerations(&rigid, settings, state, Drives::AsGiven)?;
-    preload_with(model, system, state, &accelerations, MOVING_ELASTIC)
+    // The coordinates the rigid mechanism leaves free stay where they are (a collar on a
+    // tumbling beam where it was placed): the loads balance on them, but nothing else would
+    // fix them in the static solve.
+    let held = holding_free_coordinates(model, system, state);
+    preload_with(&held, system, state, &accelerations, MOVING_ELASTIC)
 }
 
 /// The largest move of a node (plus its turn times the model's size) a pre-load may make,

@@ -245,6 +245,25 @@ pub fn unstrained_start(system: &System, state: &State, preload: bool) -> Option
     ))
 }
 
+/// The model's beams (their names, listed) that move at t = 0 with no drive moving — given
+/// velocities, a tumbling or swinging start — outside steady spins: they start unstrained
+/// under their motion's inertial loads (a tumbling beam's centrifugal stretch) unless the
+/// inertial pre-load starts them strained (see `inertial_preload::preload`).
+pub fn beams_in_free_motion(system: &System, state: &State) -> Option<String> {
+    let drives_move = system.drives.iter().any(|d| d.target_rate(state.t) != 0.0);
+    let moving = |a: usize| {
+        system.node_spin[a].is_none()
+            && (state.nodes[a].v.norm() > 0.0 || state.nodes[a].w.norm() > 0.0)
+    };
+    let beams: Vec<String> = system
+        .beam_info
+        .iter()
+        .filter(|b| b.nodes.iter().any(|&a| moving(a)))
+        .map(|b| format!("`{}`", b.name))
+        .collect();
+    (!drives_move && !beams.is_empty()).then(|| beams.join(", "))
+}
+
 /// The model's beams (their names, listed) if it starts at rest — no node moving, no
 /// coordinate or drive changing, nothing spun — with gravity, loads or a joint spring off its
 /// rest on it: beams that would start unstrained under them (see `inertial_preload::preload_at_rest`).

@@ -734,6 +734,9 @@ fn initial_state(
         warnings.extend(start_at_rest_in_equilibrium(
             model, system, settings, &mut state,
         ));
+        warnings.extend(start_free_motion_strained(
+            model, system, settings, &mut state,
+        ));
     }
     if let Some(warning) = unstrained {
         if !settings.inertial_preload {
@@ -771,6 +774,28 @@ fn start_at_rest_in_equilibrium(
         }
         Err(why) => Some(format!(
             "beam(s) {beams} start unstrained under gravity, the loads and springs at t = 0 and will ring about their deflection under them: the pre-load that starts them in equilibrium failed ({why}); `simulation.preload: true` asks for the static equilibrium itself, `preload: false` for this start without this warning"
+        )),
+    }
+}
+
+/// Beams in free motion at t = 0 (given velocities, no drive moving) start strained by that
+/// motion's inertial loads (`inertial_preload::preload`), as beams carried by moving drives
+/// do: unstrained, a tumbling beam's centrifugal stretch is a step load at its axial and
+/// bending modes. A warning if that pre-load fails.
+fn start_free_motion_strained(
+    model: &Model,
+    system: &System,
+    settings: &SimulationSettings,
+    state: &mut State,
+) -> Option<String> {
+    let beams = initial_velocities::beams_in_free_motion(system, state)?;
+    match inertial_preload::preload(model, system, settings, state) {
+        Ok(()) => {
+            initial_velocities::project_initial_velocities(system, state);
+            None
+        }
+        Err(why) => Some(format!(
+            "beam(s) {beams} start unstrained under the inertial loads of their initial motion and will ring at their modes: the inertial pre-load that starts them strained failed ({why}); `simulation.inertial_preload: false` asks for this start without this warning"
         )),
     }
 }
