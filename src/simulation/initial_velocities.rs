@@ -246,15 +246,12 @@ pub fn unstrained_start(system: &System, state: &State, preload: bool) -> Option
 }
 
 /// The model's beams (their names, listed) that move at t = 0 with no drive moving — given
-/// velocities, a tumbling or swinging start — outside steady spins: they start unstrained
-/// under their motion's inertial loads (a tumbling beam's centrifugal stretch) unless the
-/// inertial pre-load starts them strained (see `inertial_preload::preload`).
+/// velocities or spins, a tumbling or freely spinning start: they start unstrained under
+/// their motion's inertial loads (a tumbling beam's or a rotor blade's centrifugal stretch)
+/// unless the inertial pre-load starts them strained (see `inertial_preload::preload`).
 pub fn beams_in_free_motion(system: &System, state: &State) -> Option<String> {
     let drives_move = system.drives.iter().any(|d| d.target_rate(state.t) != 0.0);
-    let moving = |a: usize| {
-        system.node_spin[a].is_none()
-            && (state.nodes[a].v.norm() > 0.0 || state.nodes[a].w.norm() > 0.0)
-    };
+    let moving = |a: usize| state.nodes[a].v.norm() > 0.0 || state.nodes[a].w.norm() > 0.0;
     let beams: Vec<String> = system
         .beam_info
         .iter()
