@@ -90,6 +90,20 @@ def test_builder_errors_match_yaml_errors():
         m.validate()
 
 
+def test_builder_errors_inside_a_section_name_their_path_and_no_text_position():
+    # A model built in Python reaches the core as JSON text: an error there named the
+    # section only ("beams[0].section: unknown field …") and ended "at line 1 column 310",
+    # a position in text the user never saw.
+    m = fd.Model()
+    steel = {"E": 2.1e11, "G": 8.1e10, "density": 7850}
+    shape = {"tube": {"outer_diameter": 0.03, "wall": 0.003}}
+    m.beam("shaft", [0, 0, 0], [1, 0, 0], elements=2, section={"material": steel, "shape": shape})
+    with pytest.raises(fd.ModelError) as e:
+        m.validate()
+    assert "beams[0].section: shape.tube.outer_diameter: unknown field" in str(e.value)
+    assert " at line " not in str(e.value)
+
+
 def test_builder_keyword_typos_name_the_keyword_meant():
     """A misspelt keyword gets the accepted one it was likely meant as, like a model file's
     misspelt key; a keyword like none gets no guess; items in a pattern alike."""

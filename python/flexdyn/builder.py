@@ -674,18 +674,14 @@ class Model:
         stiffness": 2e4, "simulation.t_end": 5})`. A path is a top-level key, an item's name
         (or index) in a list, then keys inside it (created if missing); see
         `flexdyn.overrides`. This model is left as it is."""
-        import re
-
         from .overrides import apply
 
         changed = Model.from_dict(apply(self.to_dict(), overrides))
         try:
             return changed.validate()
         except _core.ModelError as e:
-            # The JSON text's line and column mean nothing to the user; the paths given do.
-            message = re.sub(r" at line \d+ column \d+", "", str(e))
             paths = ", ".join(overrides)
-            raise _core.ModelError(f"{message}\n(the model with {paths} changed)") from None
+            raise _core.ModelError(f"{e}\n(the model with {paths} changed)") from None
 
     def expanded(self) -> Model:
         """The model as the solver sees it: patterns expanded into their copies (`{i}`

@@ -4,15 +4,23 @@ use super::{Model, ModelError, ModelErrors};
 
 /// Parse a YAML model (checked by [`crate::compile::validate`]).
 pub fn parse_yaml(text: &str) -> Result<Model, ModelErrors> {
-    parse(serde_norway::Deserializer::from_str(text))
+    parse(serde_norway::Deserializer::from_str(text), Source::Yaml)
 }
 
 /// Parse a JSON model (what the Python builder sends).
 pub fn parse_json(text: &str) -> Result<Model, ModelErrors> {
-    parse(&mut serde_json::Deserializer::from_str(text))
+    parse(&mut serde_json::Deserializer::from_str(text), Source::Json)
 }
 
-fn parse<'de, D: serde::Deserializer<'de>>(de: D) -> Result<Model, ModelErrors>
+/// What a model's text came from: a YAML file a user wrote, or the JSON the Python builder
+/// serialized (whose line and column mean nothing to its user).
+#[derive(Clone, Copy, PartialEq)]
+enum Source {
+    Yaml,
+    Json,
+}
+
+fn parse<'de, D: serde::Deserializer<'de>>(de: D, source: Source) -> Result<Model, ModelErrors>
 where
     D::Error: std::fmt::Display,
 {
@@ -21,16 +29,21 @@ where
         let inner = e.into_inner().to_string();
         ModelErrors::one(ModelError::new(
             if path == "." { String::new() } else { path },
-            clean(&inner),
+            clean(&inner, source),
         ))
     })
 }
 
 /// Serde's message for an untagged enum says nothing useful; say what is accepted. The YAML
-/// parser prefixes its own (coarser) path, which is dropped in favour of the full path.
-fn clean(msg: &str) -> String {
-    let msg = match msg.split_once(": ") {
-        Some((head, rest)) if !head.is_empty() && !head.contains(' ') => rest,
+/// parser prefixes its own (coarser) path, which is dropped in favour of the full path; the
+/// JSON parser appends the position in the builder's serialized text, which is dropped.
+fn clean(msg: &str, source: Source) -> String {
+    let msg = match (source, msg.split_once(": ")) {
+        (Source::Yaml, Some((head, rest))) if !head.is_empty() && !head.contains(' ') => rest,
+        _ => msg,
+    };
+    let msg = match (source, msg.rfind(" at line ")) {
+        (Source::Json, Some(at)) if msg[at..].contains(" column ") => &msg[..at],
         _ => msg,
     };
     if msg.contains("did not match any variant of untagged enum Inertia") {
@@ -125,6 +138,19 @@ mod tests {
         let m = message(shape);
         assert!(
             m.contains("shape.rectangle.heigth") && m.contains("did you mean `height`?"),
+            "{m}"
+        );
+        // From the Python builder (JSON): the same path inside the section, and no position
+        // in the serialized text.
+        let json = r#"{"beams": [{"name": "b", "start": [0, 0, 0], "end": [1, 0, 0], "section":
+            {"material": {"E": 7.0e10, "nu": 0.33, "density": 2700},
+             "shape": {"tube": {"outer_diameter": 0.04, "wall": 0.003}}}}]}"#;
+        let m = parse_json(json)
+            .err()
+            .expect("an unknown field")
+            .to_string();
+        assert!(
+            m.contains("shape.tube.outer_diameter") && !m.contains(" at line "),
             "{m}"
         );
         let hinge = "joints: [{type: hinge, name: pin, node1: ground, node2: a}]";
