@@ -731,73 +731,64 @@ fn initial_state(
     ));
     let unstrained = initial_velocities::unstrained_start(system, &state, static_start);
     if unstrained.is_none() && settings.preload.is_none() && settings.inertial_preload {
-        warnings.extend(start_at_rest_in_equilibrium(
-            model, system, settings, &mut state,
-        ));
-        warnings.extend(start_free_motion_strained(
-            model, system, settings, &mut state,
-        ));
+        warnings.extend(start_strained(model, system, settings, &mut state));
     }
     if let Some(warning) = unstrained {
         if !settings.inertial_preload {
             warnings.push(warning);
             return Ok((state, warnings));
         }
-        match inertial_preload::preload(model, system, settings, &mut state) {
-            Ok(()) => {
-                initial_velocities::project_initial_velocities(system, &mut state);
-            }
-            Err(why) => warnings.push(format!(
-                "{warning} (the inertial pre-load that starts them strained failed: {why})"
-            )),
-        }
+        let outcome = inertial_preload::preload(model, system, settings, &mut state);
+        warnings.extend(after_preload(system, &mut state, outcome, |why| {
+            format!("{warning} (the inertial pre-load that starts them strained failed: {why})")
+        }));
     }
     Ok((state, warnings))
 }
 
-/// A model at rest under gravity, loads or springs at t = 0 starts with its beams in
-/// equilibrium with them (`inertial_preload::preload_at_rest`): it would otherwise ring about
-/// that deflection (a 20 kg carriage on a 2 m steel cantilever: ±14 mm about its 10 mm sag,
-/// and five times the steps; a spring-deployed boom: 1.7 µs steps). A warning if that
-/// pre-load fails.
-fn start_at_rest_in_equilibrium(
-    model: &Model,
+/// A pre-load's outcome: the velocities made consistent again at the positions it moved, or,
+/// where it failed (the beams left unstrained), the warning `unstrained` makes of why.
+fn after_preload(
     system: &System,
-    settings: &SimulationSettings,
     state: &mut State,
+    outcome: Result<(), String>,
+    unstrained: impl FnOnce(String) -> String,
 ) -> Option<String> {
-    let beams = initial_velocities::loaded_at_rest(system, state)?;
-    match inertial_preload::preload_at_rest(model, system, settings, state) {
+    match outcome {
         Ok(()) => {
             initial_velocities::project_initial_velocities(system, state);
             None
         }
-        Err(why) => Some(format!(
-            "beam(s) {beams} start unstrained under gravity, the loads and springs at t = 0 and will ring about their deflection under them: the pre-load that starts them in equilibrium failed ({why}); `simulation.preload: true` asks for the static equilibrium itself, `preload: false` for this start without this warning"
-        )),
+        Err(why) => Some(unstrained(why)),
     }
 }
 
-/// Beams in free motion at t = 0 (given velocities, no drive moving) start strained by that
-/// motion's inertial loads (`inertial_preload::preload`), as beams carried by moving drives
-/// do: unstrained, a tumbling beam's centrifugal stretch is a step load at its axial and
-/// bending modes. A warning if that pre-load fails.
-fn start_free_motion_strained(
+/// Beams that would start unstrained under the loads acting at t = 0 start strained by them,
+/// or a warning says why they could not:
+/// - a model at rest under gravity, loads or springs (`inertial_preload::preload_at_rest`):
+///   it would otherwise ring about that deflection (a 20 kg carriage on a 2 m steel
+///   cantilever: ±14 mm about its 10 mm sag, and five times the steps; a spring-deployed
+///   boom: 1.7 µs steps);
+/// - beams in free motion, given velocities and no drive moving (`inertial_preload::preload`):
+///   unstrained, a tumbling beam's centrifugal stretch is a step load at its axial and
+///   bending modes.
+fn start_strained(
     model: &Model,
     system: &System,
     settings: &SimulationSettings,
     state: &mut State,
 ) -> Option<String> {
-    let beams = initial_velocities::beams_in_free_motion(system, state)?;
-    match inertial_preload::preload(model, system, settings, state) {
-        Ok(()) => {
-            initial_velocities::project_initial_velocities(system, state);
-            None
-        }
-        Err(why) => Some(format!(
-            "beam(s) {beams} start unstrained under the inertial loads of their initial motion and will ring at their modes: the inertial pre-load that starts them strained failed ({why}); `simulation.inertial_preload: false` asks for this start without this warning"
-        )),
+    if let Some(beams) = initial_velocities::loaded_at_rest(system, state) {
+        let outcome = inertial_preload::preload_at_rest(model, system, settings, state);
+        return after_preload(system, state, outcome, |why| {
+            format!("beam(s) {beams} start unstrained under gravity, the loads and springs at t = 0 and will ring about their deflection under them: the pre-load that starts them in equilibrium failed ({why}); `simulation.preload: true` asks for the static equilibrium itself, `preload: false` for this start without this warning")
+        });
     }
+    let beams = initial_velocities::beams_in_free_motion(system, state)?;
+    let outcome = inertial_preload::preload(model, system, settings, state);
+    after_preload(system, state, outcome, |why| {
+        format!("beam(s) {beams} start unstrained under the inertial loads of their initial motion and will ring at their modes: the inertial pre-load that starts them strained failed ({why}); `simulation.inertial_preload: false` asks for this start without this warning")
+    })
 }
 
 /// A static pre-load: the state becomes the static equilibrium under the loads and gravity at
