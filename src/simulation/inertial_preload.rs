@@ -90,10 +90,12 @@ pub(super) fn preload_at_rest(
         .drives
         .iter()
         .any(|d| d.function.accel(state.t).abs() > DRIVE_AT_REST);
-    let accelerations = if moves || accelerating {
-        rigid_accelerations(&rigid, settings, state, Drives::AsGiven)?
-    } else {
-        vec![(V3::zero(), V3::zero()); by_itself.len()]
+    // At rest the drives differ from held ones only by their accelerations: without those,
+    // the mechanism's own motion is the one already solved for.
+    let accelerations = match (moves, accelerating) {
+        (_, true) => rigid_accelerations(&rigid, settings, state, Drives::AsGiven)?,
+        (true, false) => by_itself,
+        (false, false) => vec![(V3::zero(), V3::zero()); by_itself.len()],
     };
     // Refused beyond 10 % of the model's size either way: from rest, the rigid accelerations
     // are those of the start itself, and the held coordinates leave no free motion to drift
