@@ -235,24 +235,22 @@ pub fn unstrained_start(system: &System, state: &State, preload: bool) -> Option
     let speed = |a: usize| state.nodes[a].v.norm() + state.nodes[a].omega().norm() * l;
     let v_scale = (0..state.nodes.len()).map(speed).fold(1e-12f64, f64::max);
     let steady = |a: usize| preload && system.node_spin[a].is_some();
-    let carried: Vec<String> = system
+    let carried = beams_with_a_node(system, |a| speed(a) > 1e-9 * v_scale && !steady(a))?;
+    Some(format!(
+        "drive(s) {} already move at t = 0: the model starts in that motion, but beam(s) {carried} start unstrained under its inertial loads and will ring at their modes; to start smoothly, bring the drive(s) up from rest with a smooth rate (docs/expressions.md, \"Starting a drive from rest\"), or let the inertial pre-load start them strained (`simulation.inertial_preload`, on by default)",
+        moving.join(", "),
+    ))
+}
+
+/// The beams (their names, listed) with a node that `node` picks; None if none has.
+fn beams_with_a_node(system: &System, node: impl Fn(usize) -> bool) -> Option<String> {
+    let beams: Vec<String> = system
         .beam_info
         .iter()
-        .filter(|b| {
-            b.nodes
-                .iter()
-                .any(|&a| speed(a) > 1e-9 * v_scale && !steady(a))
-        })
+        .filter(|b| b.nodes.iter().any(|&a| node(a)))
         .map(|b| format!("`{}`", b.name))
         .collect();
-    if carried.is_empty() {
-        return None;
-    }
-    Some(format!(
-        "drive(s) {} already move at t = 0: the model starts in that motion, but beam(s) {} start unstrained under its inertial loads and will ring at their modes; to start smoothly, bring the drive(s) up from rest with a smooth rate (docs/expressions.md, \"Starting a drive from rest\"), or let the inertial pre-load start them strained (`simulation.inertial_preload`, on by default)",
-        moving.join(", "),
-        carried.join(", ")
-    ))
+    (!beams.is_empty()).then(|| beams.join(", "))
 }
 
 /// Whether nothing moves at `state`: no node, no joint coordinate, no drive's target.
@@ -269,14 +267,12 @@ fn at_rest(sys: &System, state: &State) -> bool {
 /// unless the inertial pre-load starts them strained (see `inertial_preload::preload`).
 pub fn beams_in_free_motion(system: &System, state: &State) -> Option<String> {
     let drives_move = system.drives.iter().any(|d| d.target_rate(state.t) != 0.0);
-    let moving = |a: usize| state.nodes[a].v.norm() > 0.0 || state.nodes[a].w.norm() > 0.0;
-    let beams: Vec<String> = system
-        .beam_info
-        .iter()
-        .filter(|b| b.nodes.iter().any(|&a| moving(a)))
-        .map(|b| format!("`{}`", b.name))
-        .collect();
-    (!drives_move && !beams.is_empty()).then(|| beams.join(", "))
+    if drives_move {
+        return None;
+    }
+    beams_with_a_node(system, |a| {
+        state.nodes[a].v.norm() > 0.0 || state.nodes[a].w.norm() > 0.0
+    })
 }
 
 /// The model's beams (their names, listed) if it starts at rest — no node moving, no
@@ -292,12 +288,10 @@ pub fn loaded_at_rest(system: &System, state: &State) -> Option<String> {
         || !system.line_loads.is_empty()
         || sprung;
     let at_rest = at_rest(system, state) && system.node_spin.iter().all(Option::is_none);
-    let beams: Vec<String> = system
-        .beam_info
-        .iter()
-        .map(|b| format!("`{}`", b.name))
-        .collect();
-    (loaded && at_rest && !beams.is_empty()).then(|| beams.join(", "))
+    if !(loaded && at_rest) {
+        return None;
+    }
+    beams_with_a_node(system, |_| true)
 }
 
 /// The drives already moving at t = 0 on joints of nodes whose given velocities were
