@@ -428,26 +428,40 @@ fn closed_point_derivatives<const ND: usize, const NO: usize, const NP: usize>(
     let hs = rodrigues_h(rho);
     let (d_f, d_j, eps_j) = strain_derivatives::<ND>(el, ctx, &ps, p, &hs);
     // w C by 3×3 blocks; `half_force(cb, half, ∂ε)` = the sectional forces' half of w C ∂ε.
-    let cb = blocks(c, w);
+    let cb = SectionBlocks::of(c, w);
     // Sectional damping: the mean forces gain `D (ε_f − ε_i)/h`, so `w D/h ∂ε_f`.
-    let db = pt.damping.as_ref().map(|d| blocks(d, w / ctx.h));
+    let db = pt.damping.as_ref().map(|d| SectionBlocks::of(d, w / ctx.h));
     let (n_f, n_m) = mean_forces(el, ctx, g, &ps, &eps_j);
     let xm_t = (ps.xp_i + ps.xp_f).scale_f(0.5).tilde();
     let hrm = ps.hm.mul_m(&ps.rm);
+    // Whether `jac[0][k]` is zero by structure (a decoupled section's force along ρ′).
+    let mut force_zero = [false; ND];
     // Plain loops and functions, not closures: those are not inlined into wide kernels.
     for k in 0..ND {
         let mean = [
             (d_f[0][k] + d_j[0][k]).scale_f(0.5),
             (d_f[1][k] + d_j[1][k]).scale_f(0.5),
         ];
-        let mut force = [half_force(&cb, 0, &mean), half_force(&cb, 1, &mean)];
+        let halves = STRAIN_HALVES[k];
+        let mut force = [
+            cb.half_force(0, &mean, halves),
+            cb.half_force(1, &mean, halves),
+        ];
         if let Some(db) = &db {
+            // ε_f does not move with ε_j's offsets.
+            let rate = if k < 3 { halves } else { [false; 2] };
             for (half, f) in force.iter_mut().enumerate() {
-                *f = *f + db[half][0].mul_m(&d_f[0][k]) + db[half][1].mul_m(&d_f[1][k]);
+                for (s, d) in d_f.iter().enumerate() {
+                    if db.nonzero[half][s] && rate[s] {
+                        let t = db.m[half][s].mul_m(&d[k]);
+                        *f = Some(f.map_or(t, |f| f + t));
+                    }
+                }
             }
         }
-        jac[0][k] = ps.rm.mul_m(&force[0]);
-        jac[2][k] = hrm.mul_m(&force[1]);
+        force_zero[k] = force[0].is_none();
+        jac[0][k] = force[0].map_or(B3::zero(), |f| ps.rm.mul_m(&f));
+        jac[2][k] = force[1].map_or(B3::zero(), |f| hrm.mul_m(&f));
     }
     jac[0][1] = jac[0][1] - ps.rg_f.mul_v(&n_f).tilde().mul_m(&hs).scale_f(0.5 * w);
     jac[2][1] = jac[2][1] + h_times_gradient(rho, &ps.rm.mul_v(&n_m)).scale_f(w)
@@ -456,7 +470,11 @@ fn closed_point_derivatives<const ND: usize, const NO: usize, const NP: usize>(
             .mul_m(&hs)
             .scale_f(0.5 * w);
     for k in 0..ND {
-        jac[1][k] = B3::zero() - xm_t.mul_m(&jac[0][k]);
+        jac[1][k] = if force_zero[k] && k != 1 {
+            B3::zero()
+        } else {
+            B3::zero() - xm_t.mul_m(&jac[0][k])
+        };
     }
     jac[1][0] = jac[1][0] + o[0].tilde().scale_f(0.5);
     if ed {
@@ -466,7 +484,12 @@ fn closed_point_derivatives<const ND: usize, const NO: usize, const NP: usize>(
                 (d_f[0][k] - d_j[0][k]).scale_f(-1.0 / 12.0),
                 (d_f[1][k] - d_j[1][k]).scale_f(-1.0 / 12.0),
             ];
-            let (dn_f, dn_m) = (half_force(&cb, 0, &jump), half_force(&cb, 1, &jump));
+            let halves = STRAIN_HALVES[k];
+            let zero = B3::zero();
+            let (dn_f, dn_m) = (
+                cb.half_force(0, &jump, halves).unwrap_or(zero),
+                cb.half_force(1, &jump, halves).unwrap_or(zero),
+            );
             jac[3][k] = ps.rg_i.mul_m(&dn_f);
             jac[5][k] = ps.rg_i.mul_m(&dn_m);
             jac[4][k] = B3::zero() - xi_t.mul_m(&jac[3][k]);
@@ -483,22 +506,52 @@ fn closed_point_derivatives<const ND: usize, const NO: usize, const NP: usize>(
     o
 }
 
-/// The sectional forces' half `half` (force 0, moment 1) of `C ∂ε`, with `C` in 3×3
-/// blocks (see [`blocks`]) and `∂ε` by strain half.
-#[inline(always)]
-fn half_force(cb: &[[B3; 2]; 2], half: usize, e: &[B3; 2]) -> B3 {
-    cb[half][0].mul_m(&e[0]) + cb[half][1].mul_m(&e[1])
+/// Which strain halves (`e*`, `κ`) of `∂ε_f` and `∂ε_j` can be nonzero along each
+/// direction of the closed-form Jacobian (`Δx′, ρ, ρ′`, and `ε_j`'s offsets by half): the
+/// zero blocks of [`strain_derivatives`], whose products are skipped.
+const STRAIN_HALVES: [[bool; 2]; CLOSED_DIRS] = [
+    [true, false],
+    [true, true],
+    [false, true],
+    [true, false],
+    [false, true],
+];
+
+/// `a` times a 6×6 section matrix as 3×3 blocks `[[11, 12], [21, 22]]`, with which of them
+/// are nonzero: most sections couple neither extension and shear to bending and torsion
+/// nor the converse, and their off-diagonal blocks' products are skipped.
+struct SectionBlocks {
+    m: [[B3; 2]; 2],
+    nonzero: [[bool; 2]; 2],
 }
 
-/// `a` times a 6×6 matrix, as 3×3 blocks `[[11, 12], [21, 22]]`.
-#[inline(always)]
-fn blocks(m: &crate::beam::section::Mat6, a: f64) -> [[B3; 2]; 2] {
-    let blk = |i: usize, j: usize| {
-        M3(std::array::from_fn(|r| {
-            std::array::from_fn(|s| a * m[3 * i + r][3 * j + s])
-        }))
-    };
-    [[blk(0, 0), blk(0, 1)], [blk(1, 0), blk(1, 1)]]
+impl SectionBlocks {
+    #[inline(always)]
+    fn of(m: &crate::beam::section::Mat6, a: f64) -> Self {
+        let blk = |i: usize, j: usize| {
+            M3(std::array::from_fn(|r| {
+                std::array::from_fn(|s| a * m[3 * i + r][3 * j + s])
+            }))
+        };
+        let m = [[blk(0, 0), blk(0, 1)], [blk(1, 0), blk(1, 1)]];
+        let nonzero = m.map(|row| row.map(|b: B3| b.0.iter().flatten().any(|&v| v != 0.0)));
+        SectionBlocks { m, nonzero }
+    }
+
+    /// The sectional forces' half `half` (force 0, moment 1) of the product with `∂ε` (by
+    /// strain half, `e_nonzero` saying which can be nonzero); None where it is zero by
+    /// structure.
+    #[inline(always)]
+    fn half_force(&self, half: usize, e: &[B3; 2], e_nonzero: [bool; 2]) -> Option<B3> {
+        let mut out: Option<B3> = None;
+        for s in 0..2 {
+            if self.nonzero[half][s] && e_nonzero[s] {
+                let t = self.m[half][s].mul_m(&e[s]);
+                out = Some(out.map_or(t, |o| o + t));
+            }
+        }
+        out
+    }
 }
 
 /// The D-part's mean sectional force and moment, `C (ε_j + ε_f)/2 + D (ε_f − ε_i)/h` (EP:
@@ -742,15 +795,38 @@ mod tests {
     use super::*;
     use crate::beam::element::tests::{ctx, fixture};
 
+    /// The fixture's section with extension–bending and shear–torsion couplings, damped by a
+    /// coupled matrix too: every block of `C` and `D` nonzero, none of their products skipped.
+    fn coupled_and_damped(el: &mut BeamElement) {
+        for pt in &mut el.points {
+            let c = &mut pt.stiffness;
+            (c[0][4], c[4][0], c[1][3], c[3][1]) = (20.0, 20.0, 15.0, 15.0);
+            let mut d = *c;
+            for row in &mut d {
+                for v in row.iter_mut() {
+                    *v *= 2e-3;
+                }
+            }
+            pt.damping = Some(d);
+        }
+    }
+
     /// The closed-form point Jacobian against the dual pass it replaced, for both schemes, at
     /// increments of ~0.3 rad and 6 % of the element's length on the stressed, moving fixture:
     /// both are exact, so they agree to round-off (1e-12 of the largest entry; a 1e-6 change
-    /// of any term fails).
+    /// of any term fails), on a decoupled section (the off-diagonal blocks' products
+    /// skipped) and on a coupled and damped one.
     #[test]
     fn closed_form_point_jacobian_is_the_dual_one() {
-        for scheme in [Scheme::Ep, Scheme::Ed] {
+        for (scheme, coupled) in [Scheme::Ep, Scheme::Ed]
+            .into_iter()
+            .flat_map(|s| [(s, false), (s, true)])
+        {
             for n in 2..=4 {
-                let (el, state, layout) = fixture(n, scheme);
+                let (mut el, state, layout) = fixture(n, scheme);
+                if coupled {
+                    coupled_and_damped(&mut el);
+                }
                 let c = ctx(layout, &state);
                 let y: Vec<f64> = (0..layout.n_unknowns())
                     .map(|i| 0.15 * ((i as f64) * 1.3 + 0.4).sin())
@@ -778,7 +854,7 @@ mod tests {
                         for (pg, b) in rb.iter().enumerate() {
                             let a = jac.get(og).and_then(|r| r.get(pg)).copied();
                             let e = (a.unwrap_or(B3::zero()) - *b).max_abs();
-                            let at = format!("{scheme:?} n={n} g={g} ∂o{og}/∂p{pg}");
+                            let at = format!("{scheme:?} {coupled} n={n} g={g} ∂o{og}/∂p{pg}");
                             assert!(e <= 1e-12 * scale, "{at}: {e:e}");
                         }
                     }
