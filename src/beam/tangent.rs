@@ -438,27 +438,7 @@ fn closed_point_derivatives<const ND: usize, const NO: usize, const NP: usize>(
     let mut force_zero = [false; ND];
     // Plain loops and functions, not closures: those are not inlined into wide kernels.
     for k in 0..ND {
-        let mean = [
-            (d_f[0][k] + d_j[0][k]).scale_f(0.5),
-            (d_f[1][k] + d_j[1][k]).scale_f(0.5),
-        ];
-        let halves = STRAIN_HALVES[k];
-        let mut force = [
-            cb.half_force(0, &mean, halves),
-            cb.half_force(1, &mean, halves),
-        ];
-        if let Some(db) = &db {
-            // ε_f does not move with ε_j's offsets.
-            let rate = if k < 3 { halves } else { [false; 2] };
-            for (half, f) in force.iter_mut().enumerate() {
-                for (s, d) in d_f.iter().enumerate() {
-                    if db.nonzero[half][s] && rate[s] {
-                        let t = db.m[half][s].mul_m(&d[k]);
-                        *f = Some(f.map_or(t, |f| f + t));
-                    }
-                }
-            }
-        }
+        let force = mean_force_derivative(k, &d_f, &d_j, &cb, db.as_ref());
         force_zero[k] = force[0].is_none();
         jac[0][k] = force[0].map_or(B3::zero(), |f| ps.rm.mul_m(&f));
         jac[2][k] = force[1].map_or(B3::zero(), |f| hrm.mul_m(&f));
@@ -478,32 +458,81 @@ fn closed_point_derivatives<const ND: usize, const NO: usize, const NP: usize>(
     }
     jac[1][0] = jac[1][0] + o[0].tilde().scale_f(0.5);
     if ed {
-        let (xi_t, xf_t) = (ps.xp_i.tilde(), ps.xp_f.tilde());
-        for k in 0..ND {
-            let jump = [
-                (d_f[0][k] - d_j[0][k]).scale_f(-1.0 / 12.0),
-                (d_f[1][k] - d_j[1][k]).scale_f(-1.0 / 12.0),
-            ];
-            let halves = STRAIN_HALVES[k];
-            let zero = B3::zero();
-            let (dn_f, dn_m) = (
-                cb.half_force(0, &jump, halves).unwrap_or(zero),
-                cb.half_force(1, &jump, halves).unwrap_or(zero),
-            );
-            jac[3][k] = ps.rg_i.mul_m(&dn_f);
-            jac[5][k] = ps.rg_i.mul_m(&dn_m);
-            jac[4][k] = B3::zero() - xi_t.mul_m(&jac[3][k]);
-            jac[6][k] = ps.rg_f.mul_m(&dn_f);
-            jac[8][k] = ps.rg_f.mul_m(&dn_m);
-        }
-        jac[6][1] = jac[6][1] - o[6].tilde().mul_m(&hs);
-        jac[8][1] = jac[8][1] - o[8].tilde().mul_m(&hs);
-        for k in 0..ND {
-            jac[7][k] = B3::zero() - xf_t.mul_m(&jac[6][k]);
-        }
-        jac[7][0] = jac[7][0] + o[6].tilde();
+        jump_output_columns(&ps, &o, &hs, (&d_f, &d_j), &cb, jac);
     }
     o
+}
+
+/// The derivative along direction `k` of the mean sectional forces `w C ε̄` (ε̄ = (ε_j +
+/// ε_f)/2), with the damping's `w D/h ∂ε_f`, by half (force, moment): None where it is zero
+/// by structure ([`STRAIN_HALVES`], a decoupled section).
+#[inline(always)]
+fn mean_force_derivative<const ND: usize>(
+    k: usize,
+    d_f: &[[B3; ND]; 2],
+    d_j: &[[B3; ND]; 2],
+    cb: &SectionBlocks,
+    db: Option<&SectionBlocks>,
+) -> [Option<B3>; 2] {
+    let mean = [
+        (d_f[0][k] + d_j[0][k]).scale_f(0.5),
+        (d_f[1][k] + d_j[1][k]).scale_f(0.5),
+    ];
+    let halves = STRAIN_HALVES[k];
+    let mut force = [
+        cb.half_force(0, &mean, halves),
+        cb.half_force(1, &mean, halves),
+    ];
+    if let Some(db) = db {
+        // ε_f does not move with ε_j's offsets.
+        let rate = if k < 3 { halves } else { [false; 2] };
+        for (half, f) in force.iter_mut().enumerate() {
+            for (s, d) in d_f.iter().enumerate() {
+                if db.nonzero[half][s] && rate[s] {
+                    let t = db.m[half][s].mul_m(&d[k]);
+                    *f = Some(f.map_or(t, |f| f + t));
+                }
+            }
+        }
+    }
+    force
+}
+
+/// ED's rate-form outputs I and F (groups 3–8) over the directions, from the jump's sectional
+/// forces `−C(ε_f − ε_j)/12` through `R_i` and `R_f` (see [`closed_point_derivatives`]).
+#[inline(always)]
+fn jump_output_columns<const ND: usize, const NO: usize, const NP: usize>(
+    ps: &PointStep<f64>,
+    o: &[V3<f64>; O_GROUPS],
+    hs: &B3,
+    (d_f, d_j): (&[[B3; ND]; 2], &[[B3; ND]; 2]),
+    cb: &SectionBlocks,
+    jac: &mut [[B3; NP]; NO],
+) {
+    let (xi_t, xf_t) = (ps.xp_i.tilde(), ps.xp_f.tilde());
+    for k in 0..ND {
+        let jump = [
+            (d_f[0][k] - d_j[0][k]).scale_f(-1.0 / 12.0),
+            (d_f[1][k] - d_j[1][k]).scale_f(-1.0 / 12.0),
+        ];
+        let halves = STRAIN_HALVES[k];
+        let zero = B3::zero();
+        let (dn_f, dn_m) = (
+            cb.half_force(0, &jump, halves).unwrap_or(zero),
+            cb.half_force(1, &jump, halves).unwrap_or(zero),
+        );
+        jac[3][k] = ps.rg_i.mul_m(&dn_f);
+        jac[5][k] = ps.rg_i.mul_m(&dn_m);
+        jac[4][k] = B3::zero() - xi_t.mul_m(&jac[3][k]);
+        jac[6][k] = ps.rg_f.mul_m(&dn_f);
+        jac[8][k] = ps.rg_f.mul_m(&dn_m);
+    }
+    jac[6][1] = jac[6][1] - o[6].tilde().mul_m(hs);
+    jac[8][1] = jac[8][1] - o[8].tilde().mul_m(hs);
+    for k in 0..ND {
+        jac[7][k] = B3::zero() - xf_t.mul_m(&jac[6][k]);
+    }
+    jac[7][0] = jac[7][0] + o[6].tilde();
 }
 
 /// Which strain halves (`e*`, `κ`) of `∂ε_f` and `∂ε_j` can be nonzero along each
