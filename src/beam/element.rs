@@ -885,7 +885,7 @@ pub(crate) mod tests {
 
     /// The fixture with structural damping: stiffness-proportional plus a coupled matrix on
     /// its sections, and mass-proportional at its nodes.
-    fn damped(mut el: BeamElement) -> BeamElement {
+    pub(crate) fn damped(mut el: BeamElement) -> BeamElement {
         let c = section();
         for p in &mut el.points {
             p.damping = Some(std::array::from_fn(|i| {

@@ -427,14 +427,15 @@ fn closed_point_derivatives<const ND: usize, const NO: usize, const NP: usize>(
     let o = el.point_outputs_at(ctx, g, &ps, p, &[0.0; 6]);
     let hs = rodrigues_h(rho);
     let (d_f, d_j, eps_j) = strain_derivatives::<ND>(el, ctx, &ps, p, &hs);
-    // w C by 3×3 blocks; `half_force(cb, half, ∂ε)` = the sectional forces' half of w C ∂ε.
+    // w C by 3×3 blocks; `cb.half_force(half, ∂ε, …)` = the sectional forces' half of w C ∂ε.
     let cb = SectionBlocks::of(c, w);
     // Sectional damping: the mean forces gain `D (ε_f − ε_i)/h`, so `w D/h ∂ε_f`.
     let db = pt.damping.as_ref().map(|d| SectionBlocks::of(d, w / ctx.h));
     let (n_f, n_m) = mean_forces(el, ctx, g, &ps, &eps_j);
     let xm_t = (ps.xp_i + ps.xp_f).scale_f(0.5).tilde();
     let hrm = ps.hm.mul_m(&ps.rm);
-    // Whether `jac[0][k]` is zero by structure (a decoupled section's force along ρ′).
+    // Whether `jac[0][k]` is zero by structure (a decoupled section's force along ρ′); k = 1
+    // gains terms below whatever its force.
     let mut force_zero = [false; ND];
     // Plain loops and functions, not closures: those are not inlined into wide kernels.
     for k in 0..ND {
@@ -822,23 +823,7 @@ impl<const NQ: usize, const NY: usize> NodalMaps<NQ, NY> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::beam::element::tests::{ctx, fixture};
-
-    /// The fixture's section with extension–bending and shear–torsion couplings, damped by a
-    /// coupled matrix too: every block of `C` and `D` nonzero, none of their products skipped.
-    fn coupled_and_damped(el: &mut BeamElement) {
-        for pt in &mut el.points {
-            let c = &mut pt.stiffness;
-            (c[0][4], c[4][0], c[1][3], c[3][1]) = (20.0, 20.0, 15.0, 15.0);
-            let mut d = *c;
-            for row in &mut d {
-                for v in row.iter_mut() {
-                    *v *= 2e-3;
-                }
-            }
-            pt.damping = Some(d);
-        }
-    }
+    use crate::beam::element::tests::{coupled, ctx, damped, fixture};
 
     /// The closed-form point Jacobian against the dual pass it replaced, for both schemes, at
     /// increments of ~0.3 rad and 6 % of the element's length on the stressed, moving fixture:
@@ -847,15 +832,14 @@ mod tests {
     /// skipped) and on a coupled and damped one.
     #[test]
     fn closed_form_point_jacobian_is_the_dual_one() {
-        for (scheme, coupled) in [Scheme::Ep, Scheme::Ed]
+        for (scheme, general) in [Scheme::Ep, Scheme::Ed]
             .into_iter()
             .flat_map(|s| [(s, false), (s, true)])
         {
             for n in 2..=4 {
-                let (mut el, state, layout) = fixture(n, scheme);
-                if coupled {
-                    coupled_and_damped(&mut el);
-                }
+                let (el, state, layout) = fixture(n, scheme);
+                // Every block of C and D nonzero: none of their products skipped.
+                let el = if general { damped(coupled(el)) } else { el };
                 let c = ctx(layout, &state);
                 let y: Vec<f64> = (0..layout.n_unknowns())
                     .map(|i| 0.15 * ((i as f64) * 1.3 + 0.4).sin())
@@ -883,7 +867,7 @@ mod tests {
                         for (pg, b) in rb.iter().enumerate() {
                             let a = jac.get(og).and_then(|r| r.get(pg)).copied();
                             let e = (a.unwrap_or(B3::zero()) - *b).max_abs();
-                            let at = format!("{scheme:?} {coupled} n={n} g={g} ∂o{og}/∂p{pg}");
+                            let at = format!("{scheme:?} {general} n={n} g={g} ∂o{og}/∂p{pg}");
                             assert!(e <= 1e-12 * scale, "{at}: {e:e}");
                         }
                     }
