@@ -909,6 +909,15 @@ impl Integrator {
         self.matrix.to_csc()
     }
 
+    /// The static residual at `state` (zero increments, its multipliers) under the loads
+    /// times `load_factor`, at `state.t`: differenced in time, the explicit rate of the
+    /// equilibrium equations (drives, loads that follow a function of time).
+    pub fn static_residual(&mut self, sys: &System, state: &State, load_factor: f64) -> &[f64] {
+        let ctx = self.start_static(sys, state, load_factor);
+        self.assemble(sys, &ctx, false);
+        &self.res
+    }
+
     /// The context of a static solve from `state`, with the unknowns at `state` (zero
     /// increments, the multipliers of `state`).
     fn start_static<'a>(

@@ -44,7 +44,11 @@ pub(super) fn preload(
     // tumbling beam where it was placed): the loads balance on them, but nothing else would
     // fix them in the static solve.
     let held = holding_free_coordinates(model, system, state);
-    preload_with(&held, system, state, &accelerations, MOVING_ELASTIC)
+    let mut pre = preload_with(&held, system, state, &accelerations, MOVING_ELASTIC)?;
+    super::initial_velocities::project_initial_velocities(system, state);
+    let loads = dalembert_loads(system, state, &accelerations);
+    super::quasi_static_rate::correct_velocities(&mut pre, system, state, &loads);
+    Ok(())
 }
 
 /// The largest move of a node (plus its turn times the model's size) a pre-load may make,
@@ -101,7 +105,9 @@ pub(super) fn preload_at_rest(
     // are those of the start itself, and the held coordinates leave no free motion to drift
     // (a 2 m strip of EI = 50 N·m² released as a pendulum bends by 5 %).
     let held = holding_free_coordinates(model, system, state);
-    preload_with(&held, system, state, &accelerations, AT_REST_ELASTIC)
+    preload_with(&held, system, state, &accelerations, AT_REST_ELASTIC)?;
+    super::initial_velocities::project_initial_velocities(system, state);
+    Ok(())
 }
 
 /// `model` with every joint coordinate that no drive prescribes and the rigidified mechanism
@@ -172,7 +178,7 @@ fn preload_with(
     state: &mut State,
     accelerations: &[Acceleration],
     elastic_within: f64,
-) -> Result<(), String> {
+) -> Result<Simulation, String> {
     let mut pre = static_solve_of(model, state).map_err(|e| e.to_string())?;
     let lay = pre.system.layout;
     for inertia in &system.inertias {
@@ -180,13 +186,7 @@ fn preload_with(
         if system.node_spin[a].is_some() {
             continue; // a static solve has its steady-spin inertia already
         }
-        let (acc, w_dot) = accelerations[a];
-        let n = &state.nodes[a];
-        let force = acc.scale_f(-inertia.mass);
-        let j = inertia.inertia;
-        let moment =
-            n.r.mul_v(&(j.mul_v(&w_dot) + n.w.cross(&j.mul_v(&n.w))))
-                .scale_f(-1.0);
+        let (force, moment) = dalembert(inertia, state, &accelerations[a]);
         for (kind, value) in [(LoadKind::Force, force), (LoadKind::Moment, moment)] {
             let load = PointLoad::new(a, kind, value, false, None, &lay);
             pre.system.loads.push(load);
@@ -196,7 +196,40 @@ fn preload_with(
     pre.solve_static().map_err(|e| e.reason)?;
     check_elastic(system, state, &pre.state, elastic_within)?;
     super::adopt_static_positions(system, state, &pre.state);
-    Ok(())
+    Ok(pre)
+}
+
+/// Each non-spinning node's d'Alembert force and moment (spatial) of the rigid
+/// `accelerations` in `state` (a spun node's steady-spin inertia is the static solve's own).
+fn dalembert_loads(
+    system: &System,
+    state: &State,
+    accelerations: &[Acceleration],
+) -> Vec<super::quasi_static_rate::NodeLoad> {
+    system
+        .inertias
+        .iter()
+        .filter(|inertia| system.node_spin[inertia.node].is_none())
+        .map(|inertia| {
+            let (force, moment) = dalembert(inertia, state, &accelerations[inertia.node]);
+            (inertia.node, force, moment)
+        })
+        .collect()
+}
+
+/// The d'Alembert force and moment (spatial) of a node's rigid `acceleration` in `state`.
+fn dalembert(
+    inertia: &crate::elements::inertia::NodeInertia,
+    state: &State,
+    acceleration: &Acceleration,
+) -> (V3<f64>, V3<f64>) {
+    let (acc, w_dot) = acceleration;
+    let n = &state.nodes[inertia.node];
+    let j = inertia.inertia;
+    let moment =
+        n.r.mul_v(&(j.mul_v(w_dot) + n.w.cross(&j.mul_v(&n.w))))
+            .scale_f(-1.0);
+    (acc.scale_f(-inertia.mass), moment)
 }
 
 /// A static analysis of `model` starting from `state`'s positions.

@@ -6,6 +6,7 @@ mod failures;
 mod inertial_preload;
 mod initial_velocities;
 mod outputs;
+mod quasi_static_rate;
 mod step_control;
 mod stick_slip;
 mod velocity_projection;
@@ -739,28 +740,11 @@ fn initial_state(
             return Ok((state, warnings));
         }
         let outcome = inertial_preload::preload(model, system, settings, &mut state);
-        warnings.extend(after_preload(system, &mut state, outcome, |why| {
+        warnings.extend(outcome.err().map(|why| {
             format!("{warning} (the inertial pre-load that starts them strained failed: {why})")
         }));
     }
     Ok((state, warnings))
-}
-
-/// A pre-load's outcome: the velocities made consistent again at the positions it moved, or,
-/// where it failed (the beams left unstrained), the warning `unstrained` makes of why.
-fn after_preload(
-    system: &System,
-    state: &mut State,
-    outcome: Result<(), String>,
-    unstrained: impl FnOnce(String) -> String,
-) -> Option<String> {
-    match outcome {
-        Ok(()) => {
-            initial_velocities::project_initial_velocities(system, state);
-            None
-        }
-        Err(why) => Some(unstrained(why)),
-    }
 }
 
 /// Beams that would start unstrained under the loads acting at t = 0 start strained by them,
@@ -780,13 +764,13 @@ fn start_strained(
 ) -> Option<String> {
     if let Some(beams) = initial_velocities::loaded_at_rest(system, state) {
         let outcome = inertial_preload::preload_at_rest(model, system, settings, state);
-        return after_preload(system, state, outcome, |why| {
+        return outcome.err().map(|why| {
             format!("beam(s) {beams} start unstrained under gravity, the loads and springs at t = 0 and will ring about their deflection under them: the pre-load that starts them in equilibrium failed ({why}); `simulation.preload: true` asks for the static equilibrium itself, `preload: false` for this start without this warning")
         });
     }
     let beams = initial_velocities::beams_in_free_motion(system, state)?;
     let outcome = inertial_preload::preload(model, system, settings, state);
-    after_preload(system, state, outcome, |why| {
+    outcome.err().map(|why| {
         format!("beam(s) {beams} start unstrained under the inertial loads of their initial motion and will ring at their modes: the inertial pre-load that starts them strained failed ({why}); `simulation.inertial_preload: false` asks for this start without this warning")
     })
 }
