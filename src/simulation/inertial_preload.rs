@@ -29,6 +29,8 @@ use crate::model::{Analysis, ClampJoint, Joint, Model, Scheme, SimulationSetting
 use crate::state::State;
 use crate::system::System;
 
+use super::quasi_static_rate::NodeLoad;
+
 /// Moves `state`'s positions to the quasi-static equilibrium with the inertial loads of its
 /// motion (the velocities are then to be made consistent again at the new positions).
 /// `Err` says why it could not, and leaves `state` as it was.
@@ -44,9 +46,9 @@ pub(super) fn preload(
     // tumbling beam where it was placed): the loads balance on them, but nothing else would
     // fix them in the static solve.
     let held = holding_free_coordinates(model, system, state);
-    let mut pre = preload_with(&held, system, state, &accelerations, MOVING_ELASTIC)?;
-    super::initial_velocities::project_initial_velocities(system, state);
     let loads = dalembert_loads(system, state, &accelerations);
+    let mut pre = preload_with(&held, system, state, &loads, MOVING_ELASTIC)?;
+    super::initial_velocities::project_initial_velocities(system, state);
     super::quasi_static_rate::correct_velocities(&mut pre, system, state, &loads);
     Ok(())
 }
@@ -105,7 +107,8 @@ pub(super) fn preload_at_rest(
     // are those of the start itself, and the held coordinates leave no free motion to drift
     // (a 2 m strip of EI = 50 N·m² released as a pendulum bends by 5 %).
     let held = holding_free_coordinates(model, system, state);
-    preload_with(&held, system, state, &accelerations, AT_REST_ELASTIC)?;
+    let loads = dalembert_loads(system, state, &accelerations);
+    preload_with(&held, system, state, &loads, AT_REST_ELASTIC)?;
     super::initial_velocities::project_initial_velocities(system, state);
     Ok(())
 }
@@ -171,22 +174,17 @@ enum Drives {
 /// carriage driven from rest: 1.5e-3 m/s²).
 const AT_REST: f64 = 0.01 * 9.80665;
 
-/// [`preload`] from the rigidified mechanism's `accelerations`.
+/// [`preload`] under the d'Alembert `loads` of the rigidified mechanism's accelerations.
 fn preload_with(
     model: &Model,
     system: &System,
     state: &mut State,
-    accelerations: &[Acceleration],
+    loads: &[NodeLoad],
     elastic_within: f64,
 ) -> Result<Simulation, String> {
     let mut pre = static_solve_of(model, state).map_err(|e| e.to_string())?;
     let lay = pre.system.layout;
-    for inertia in &system.inertias {
-        let a = inertia.node;
-        if system.node_spin[a].is_some() {
-            continue; // a static solve has its steady-spin inertia already
-        }
-        let (force, moment) = dalembert(inertia, state, &accelerations[a]);
+    for &(a, force, moment) in loads {
         for (kind, value) in [(LoadKind::Force, force), (LoadKind::Moment, moment)] {
             let load = PointLoad::new(a, kind, value, false, None, &lay);
             pre.system.loads.push(load);
@@ -205,7 +203,7 @@ fn dalembert_loads(
     system: &System,
     state: &State,
     accelerations: &[Acceleration],
-) -> Vec<super::quasi_static_rate::NodeLoad> {
+) -> Vec<NodeLoad> {
     system
         .inertias
         .iter()
