@@ -32,8 +32,8 @@ use crate::system::System;
 use super::quasi_static_rate::NodeLoad;
 
 /// Moves `state`'s positions to the quasi-static equilibrium with the inertial loads of its
-/// motion (the velocities are then to be made consistent again at the new positions).
-/// `Err` says why it could not, and leaves `state` as it was.
+/// motion, and its velocities to the rate at which that equilibrium moves
+/// ([`super::quasi_static_rate`]). `Err` says why it could not, and leaves `state` as it was.
 pub(super) fn preload(
     model: &Model,
     system: &System,
@@ -197,8 +197,9 @@ fn preload_with(
     Ok(pre)
 }
 
-/// Each non-spinning node's d'Alembert force and moment (spatial) of the rigid
-/// `accelerations` in `state` (a spun node's steady-spin inertia is the static solve's own).
+/// Each non-spinning node's d'Alembert force `−m a` and moment `−R(J Ẇ + W × J W)` (spatial)
+/// of the rigid `accelerations` in `state` (a spun node's steady-spin inertia is the static
+/// solve's own).
 fn dalembert_loads(
     system: &System,
     state: &State,
@@ -209,25 +210,12 @@ fn dalembert_loads(
         .iter()
         .filter(|inertia| system.node_spin[inertia.node].is_none())
         .map(|inertia| {
-            let (force, moment) = dalembert(inertia, state, &accelerations[inertia.node]);
-            (inertia.node, force, moment)
+            let a = inertia.node;
+            let ((acc, w_dot), n, j) = (accelerations[a], &state.nodes[a], inertia.inertia);
+            let moment = n.r.mul_v(&(j.mul_v(&w_dot) + n.w.cross(&j.mul_v(&n.w))));
+            (a, acc.scale_f(-inertia.mass), moment.scale_f(-1.0))
         })
         .collect()
-}
-
-/// The d'Alembert force and moment (spatial) of a node's rigid `acceleration` in `state`.
-fn dalembert(
-    inertia: &crate::elements::inertia::NodeInertia,
-    state: &State,
-    acceleration: &Acceleration,
-) -> (V3<f64>, V3<f64>) {
-    let (acc, w_dot) = acceleration;
-    let n = &state.nodes[inertia.node];
-    let j = inertia.inertia;
-    let moment =
-        n.r.mul_v(&(j.mul_v(w_dot) + n.w.cross(&j.mul_v(&n.w))))
-            .scale_f(-1.0);
-    (acc.scale_f(-inertia.mass), moment)
 }
 
 /// A static analysis of `model` starting from `state`'s positions.
