@@ -107,6 +107,14 @@ impl Geometric {
             &self.constraint[r - NCOL]
         }
     }
+
+    fn row_mut(&mut self, r: usize) -> &mut [f64; NCOL] {
+        if r < NCOL {
+            &mut self.force[r]
+        } else {
+            &mut self.constraint[r - NCOL]
+        }
+    }
 }
 
 /// One side's unknowns in a block: the local slot of its `[Δx, r]`, its triads at the start
@@ -145,20 +153,25 @@ impl BlockColumns<'_> {
         vals: &mut [f64],
         pos: &[ValuePos],
     ) {
+        let (rows, cols) = self.entries();
         for (k, side) in self.sides.iter().enumerate() {
             let Some(side) = side else { continue };
             let th = 6 * k + 3;
             let gamma = side.r_f.mul_m(&cayley_tangent(&side.r));
-            for row in d.force.iter_mut().chain(&mut d.constraint[..self.n_rows]) {
+            for &(_, dr) in rows.listed() {
+                let row = d.row_mut(dr);
                 let v = gamma.tmul_v(&V3([row[th], row[th + 1], row[th + 2]]));
                 row[th..th + 3].copy_from_slice(&v.0);
             }
-            turn_rows(&mut d.force, th, &side.r_i);
+            turn_rows(&mut d.force, th, &side.r_i, cols.listed());
         }
         let jump_of = self.jumps(tangent);
-        self.for_each_entry(d, |i, l, v| {
-            add_geometric_entry(tangent, &jump_of[..n], n, (i, l, v), vals, pos)
-        });
+        for &(i, dr) in rows.listed() {
+            let row = d.row(dr);
+            for &(l, dc) in cols.listed() {
+                add_geometric_entry(tangent, &jump_of[..n], n, (i, l, row[dc]), vals, pos);
+            }
+        }
     }
 
     /// Each motion slot's jump slot on an ED block (the jumps follow the increments), for
@@ -178,53 +191,63 @@ impl BlockColumns<'_> {
         jump_of
     }
 
-    /// Calls `f(local row, local geometric slot, value)` for each entry of `d`.
-    fn for_each_entry(&self, d: &Geometric, mut f: impl FnMut(usize, usize, f64)) {
+    /// The rows and the geometric columns the block writes: (local slot, row or column of
+    /// the derivative). The forces on the translations of a law affine in them are `∓λ` (no
+    /// geometric stiffness), and their columns are `add_translation_columns`'.
+    fn entries(&self) -> (Slots<{ NCOL + MAX_ROWS }>, Slots<NCOL>) {
         let first = if self.translations_linear { 3 } else { 0 };
-        // (local slot, derivative row) of the rows; (local slot, derivative column) of the
-        // geometric unknowns.
-        let mut rows = [(0, 0); NCOL + MAX_ROWS];
-        let mut cols = [(0, 0); NCOL];
-        let (mut nr, mut nc) = (0, 0);
+        let (mut rows, mut cols) = (Slots::new(), Slots::new());
         for (k, side) in self.sides.iter().enumerate() {
             if let Some(side) = side {
-                // The forces on the translations of a law affine in them are `∓λ`: no
-                // geometric stiffness.
                 for c in first..6 {
-                    rows[nr] = (side.delta + c, 6 * k + c);
-                    nr += 1;
-                }
-                for c in first..6 {
-                    cols[nc] = (side.delta + c, 6 * k + c);
-                    nc += 1;
+                    rows.push(side.delta + c, 6 * k + c);
+                    cols.push(side.delta + c, 6 * k + c);
                 }
             }
         }
         for (c, &slot) in self.coords.iter().enumerate() {
-            rows[nr] = (slot, 12 + c);
-            cols[nc] = (slot, 12 + c);
-            (nr, nc) = (nr + 1, nc + 1);
+            rows.push(slot, 12 + c);
+            cols.push(slot, 12 + c);
         }
         for r in 0..self.n_rows {
-            rows[nr] = (self.mult + self.per * r, NCOL + r);
-            nr += 1;
+            rows.push(self.mult + self.per * r, NCOL + r);
         }
-        for &(i, dr) in &rows[..nr] {
-            let row = d.row(dr);
-            for &(l, dc) in &cols[..nc] {
-                f(i, l, row[dc]);
-            }
-        }
+        (rows, cols)
     }
 }
 
-/// Moment rows `th..th+3` of `d` as they act on the material unknowns: `R_iᵀ` of them.
-fn turn_rows(d: &mut Stiffness, th: usize, r_i: &M3<f64>) {
+/// Up to `N` pairs (local slot, index in the derivative).
+struct Slots<const N: usize> {
+    pairs: [(usize, usize); N],
+    len: usize,
+}
+
+impl<const N: usize> Slots<N> {
+    fn new() -> Self {
+        Slots {
+            pairs: [(0, 0); N],
+            len: 0,
+        }
+    }
+
+    fn push(&mut self, slot: usize, index: usize) {
+        self.pairs[self.len] = (slot, index);
+        self.len += 1;
+    }
+
+    fn listed(&self) -> &[(usize, usize)] {
+        &self.pairs[..self.len]
+    }
+}
+
+/// Moment rows `th..th+3` of `d` as they act on the material unknowns: `R_iᵀ` of them, in
+/// the columns `cols` (derivative column second) that are written.
+fn turn_rows(d: &mut Stiffness, th: usize, r_i: &M3<f64>, cols: &[(usize, usize)]) {
     let [a, b, c] = &mut d[th..th + 3] else {
         unreachable!("three moment rows")
     };
-    for ((x, y), z) in a.iter_mut().zip(b.iter_mut()).zip(c.iter_mut()) {
-        [*x, *y, *z] = r_i.tmul_v(&V3([*x, *y, *z])).0;
+    for &(_, j) in cols {
+        [a[j], b[j], c[j]] = r_i.tmul_v(&V3([a[j], b[j], c[j]])).0;
     }
 }
 
@@ -272,7 +295,8 @@ impl ClosedTangent<NCOL> for JointKernel {
         if self.translations_linear() {
             add_translation_columns(ctx, &map, &terms, n, vals, pos);
         }
-        let mut d = self.geometric_derivative(ctx, (&si, &sf), yl);
+        let mut d = Geometric::zero();
+        self.geometric_derivative(ctx, (&si, &sf), yl, &mut d);
         let coord_slots: [usize; 2] = std::array::from_fn(|c| self.coord_slot + self.per * c);
         let frame = |k: usize| {
             self.slots[k].delta.map(|delta| SideFrame {
@@ -295,16 +319,16 @@ impl ClosedTangent<NCOL> for JointKernel {
 }
 
 impl JointKernel {
-    /// `∂(B^Dᵀ sλ, s C_f)/∂` the end state's spatial variations.
+    /// `∂(B^Dᵀ sλ, s C_f)/∂` the end state's spatial variations, added to `d` (zero).
     fn geometric_derivative(
         &self,
         ctx: &StepCtx,
         (si, sf): (&JointState<f64>, &JointState<f64>),
         yl: &[f64],
-    ) -> Geometric {
+        d: &mut Geometric,
+    ) {
         let nr = self.n_rows();
         let lam = self.multipliers(ctx, yl, false);
-        let mut d = Geometric::zero();
         self.law.force_stiffness(si, sf, &lam[..nr], &mut d.force);
         self.law.rate(sf, &mut d.constraint);
         for row in &mut d.constraint[..nr] {
@@ -312,7 +336,6 @@ impl JointKernel {
                 *v *= ctx.s;
             }
         }
-        d
     }
 }
 

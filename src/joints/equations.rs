@@ -550,7 +550,13 @@ pub fn add_linear_columns<const NC: usize>(
     let s = ctx.s;
     let per = map.per;
     let at = if ctx.is_static() { At::End } else { At::Start };
-    let mut put = |row: usize, col: usize, v: f64| vals[pos[row * n + col] as usize] += v;
+    // Structural zeros (a coincident point's rows on the other translations, an angle's on
+    // any) are skipped: a branch the same for every joint of a kind, against a scattered add.
+    let mut put = |row: usize, col: usize, v: f64| {
+        if v != 0.0 {
+            vals[pos[row * n + col] as usize] += v
+        }
+    };
     for r in 0..map.n_rows {
         let lam = map.mult + per * r;
         map.for_each_entry(&terms.b[r], at, false, |slot, v| put(slot, lam, s * v));
@@ -591,7 +597,10 @@ pub fn add_translation_columns<const NC: usize>(
         for node in map.nodes {
             for c in 0..3 {
                 let col = node.delta + c;
-                vals[pos[row * n + col] as usize] += s * terms.b[r][node.col + c];
+                let b = terms.b[r][node.col + c];
+                if b != 0.0 {
+                    vals[pos[row * n + col] as usize] += s * b;
+                }
                 if let Some((_, b_f)) = terms.rates {
                     vals[pos[(row + 1) * n + col] as usize] -= 2.0 * s * b_f[r][node.col + c];
                 }

@@ -37,6 +37,9 @@ pub const MAX_ROWS: usize = 8;
 pub const MAX_COORDS: usize = 2;
 /// Columns of a gradient row: two nodes × (3 + 3) and the joint's coordinates.
 pub const NCOL: usize = 12 + MAX_COORDS;
+/// A pair joint's largest local block: two nodes' increments and jumps, the coordinates'
+/// and the rows' multipliers with their jumps (ED).
+const MAX_PAIR_LOCAL: usize = 2 * 12 + 2 * MAX_COORDS + 2 * MAX_ROWS;
 
 pub type Rows<T> = [[T; NCOL]; MAX_ROWS];
 
@@ -509,8 +512,8 @@ impl JointKernel {
     }
 
     /// The joint's local unknowns from the global vector (on the stack).
-    fn gather(&self, y: &[f64]) -> [f64; crate::elements::MAX_LOCAL] {
-        let mut buf = [0.0; crate::elements::MAX_LOCAL];
+    fn gather(&self, y: &[f64]) -> [f64; MAX_PAIR_LOCAL] {
+        let mut buf = [0.0; MAX_PAIR_LOCAL];
         for (b, &g) in buf.iter_mut().zip(self.unknowns.iter()) {
             *b = y[g];
         }
