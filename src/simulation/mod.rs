@@ -161,6 +161,8 @@ pub struct Simulation {
     recent_means: std::collections::VecDeque<StepMeans>,
     /// Adaptive stepping: the step-size controller.
     controller: step_control::Controller,
+    /// Adaptive stepping: the times a load scale jumps at, ascending (steps end on them).
+    load_jumps: Vec<f64>,
     /// The error indicator's energy scales (total, translational, rotational motion energy;
     /// see `motion_energies`): the largest so far, never less than `energy_floor`.
     energy_scale: [f64; 3],
@@ -194,8 +196,10 @@ impl Simulation {
         let (mut state, mut warnings) = initial_state(model, &system, &settings, statics)?;
         stick_slip::start_frictions(&mut system, &mut state);
         warnings.extend(stick_slip::static_friction_warning(&system, statics));
+        let mut load_jumps = Vec::new();
         if !statics {
             warnings.extend(system.time_function_jumps(settings.t_end));
+            load_jumps = system.load_jump_times(settings.t_end);
         }
         let mut integrator = Integrator::new(&system, &settings);
         let energy_floor = if statics || settings.step_control == StepControl::Fixed {
@@ -245,6 +249,7 @@ impl Simulation {
             h_next: 0.0,
             recent_means: Default::default(),
             controller: Default::default(),
+            load_jumps,
             energy_scale: [0.0; 3],
             energy_floor,
             load_factor: 0.0,

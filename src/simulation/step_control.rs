@@ -225,12 +225,18 @@ impl Simulation {
                     // smaller still).
                     let tried_h = h;
                     h = step.h;
+                    let jump = self.load_jump_at(self.state.t + h);
                     let stuck =
                         previous_trial.is_some_and(|(h0, e0)| h < 0.67 * h0 && e > 0.9 * e0);
                     previous_trial = Some((h, e));
                     if e <= 1.0 || stuck {
                         if e > 1.0 {
                             self.stats.over_tolerance += 1;
+                        }
+                        let mut state = state;
+                        if let Some(t) = jump {
+                            // Exactly on the jump: the next step starts on its far side.
+                            state.t = t;
                         }
                         self.accept(state, report, h);
                         self.stats.steps_set_by[by as usize] += 1;
@@ -246,9 +252,10 @@ impl Simulation {
                         if h < tried_h {
                             self.h_next = self.h_next.max(tried_h.min(dt_max));
                         }
-                        if event {
+                        if event || jump.is_some() {
                             // The motion's history says nothing about the motion after a
-                            // stick–slip event: start afresh, from the size asked before it.
+                            // stick–slip event or a load's jump: start afresh, from the
+                            // size asked before it.
                             self.recent_means.clear();
                             self.controller = Controller::default();
                             self.h_next = self.h_next.max(first_h.min(dt_max));
@@ -274,10 +281,10 @@ impl Simulation {
         }
     }
 
-    /// The size of the first trial: the proposed one, landing on t_end without leaving a
-    /// last step much shorter than the one before it.
+    /// The size of the first trial: the proposed one, landing on the next load jump or
+    /// t_end without leaving a last step much shorter than the one before it.
     fn first_trial(&self) -> f64 {
-        let remaining = self.settings.t_end - self.state.t;
+        let remaining = self.next_landing() - self.state.t;
         let h = self.h_next.min(self.settings.dt_max());
         if remaining < 4.0 * h {
             // The last few steps equal, rather than h and a sliver: a step much shorter
@@ -286,6 +293,29 @@ impl Simulation {
         } else {
             h
         }
+    }
+
+    /// Where the next steps must end: the first load jump after the current time
+    /// ([`crate::system::System::load_jump_times`]), else t_end.
+    fn next_landing(&self) -> f64 {
+        let t = self.state.t;
+        let ahead = self
+            .load_jumps
+            .partition_point(|&j| j <= t + LANDED * j.abs());
+        self.load_jumps
+            .get(ahead)
+            .map_or(self.settings.t_end, |&j| j.min(self.settings.t_end))
+    }
+
+    /// The load jump a step ending at `t` ends on, if any (within round-off of it).
+    fn load_jump_at(&self, t: f64) -> Option<f64> {
+        let near = self
+            .load_jumps
+            .partition_point(|&j| j < t - LANDED * j.abs());
+        self.load_jumps
+            .get(near)
+            .copied()
+            .filter(|&j| (j - t).abs() <= LANDED * j.abs())
     }
 
     /// The failure of a step that shrank to dt_min. If a drive or load is undefined just
@@ -330,6 +360,9 @@ pub enum SetBy {
     /// ED's jump energies.
     Jumps = 2,
 }
+
+/// A step end this close (relative) to a load jump is on it.
+const LANDED: f64 = 1e-12;
 
 /// `√(E_err/E)/tol`; zero while nothing moves or strains.
 fn relative(error_energy: f64, scale: f64, tol: f64) -> f64 {
