@@ -916,11 +916,12 @@ def test_a_shaft_spinning_on_its_bearings_starts_with_its_sag_still(scheme):
     assert np.ptp(z) < 1e-2 * sag
 
 
-def plucked_strip(release, t_end):
-    """A steel strip 0.5 m × 20 mm × 2 mm clamped at one end, held bent by a tip load that is
-    switched off at `release` (a pluck test): static tip deflection `pl³/3EI`, first mode
-    3.516 √(EI/ml⁴) rad/s (6.68 Hz)."""
-    e, rho, length, b, t = 210e9, 7850.0, 0.5, 0.02, 0.002
+def plucked(e, rho, size, p, release_periods, run_periods):
+    """A strip of `size` = (length, width, thickness) clamped at one end, held bent by a tip
+    load `p` that is switched off after `release_periods` periods of its first mode (a pluck
+    test), run `run_periods` more: with its static tip deflection `pl³/3EI` and its first
+    mode 3.516 √(EI/ml⁴) (rad/s)."""
+    length, b, t = size
     area, i2, i3 = b * t, b * t**3 / 12, t * b**3 / 12
     g = e / 2.6
     section = {
@@ -934,15 +935,15 @@ def plucked_strip(release, t_end):
         "i22": rho * i2,
         "i33": rho * i3,
     }
-    p = 0.05
+    omega = 3.516 * np.sqrt(e * i2 / (rho * area * length**4))
+    release = release_periods * 2 * np.pi / omega
     m = fd.Model("pluck")
     m.beam("strip", [0, 0, 0], [length, 0, 0], elements=6, section=section, e2=[0, 1, 0])
     m.clamp("root", "ground", "strip.start")
-    m.force("hold", "strip.end", [0, 0, -p], scale=f"t < {release} ? 1 : 0")
+    m.force("hold", "strip.end", [0, 0, -p], scale=f"t < {float(release)!r} ? 1 : 0")
     m.sensor("node_displacement", "tip", node="strip.end").sensor("energy", "energy")
-    m.simulation(t_end=t_end)
-    omega = 3.516 * np.sqrt(e * i2 / (rho * area * length**4))
-    return m, p * length**3 / (3 * e * i2), omega
+    m.simulation(t_end=release + run_periods * 2 * np.pi / omega)  # everything else at its default
+    return m, release, p * length**3 / (3 * e * i2), omega
 
 
 @pytest.mark.parametrize("scheme", ["ed", "ep"])
@@ -950,8 +951,9 @@ def test_a_load_switched_off_mid_run_releases_the_structure_there(scheme):
     # A load that jumps inside a step is carried by its mean over the step: the work balances
     # but the motion does not (a MEMS cantilever's first EP step ran past its release and on
     # for two periods, leaving it 29 % of its strain energy). Adaptive steps end on the jump.
-    release = 0.02
-    m, deflection, omega = plucked_strip(release, t_end=release + 2.5 * np.pi / omega_of_strip())
+    # A steel strip 0.5 m × 20 mm × 2 mm (6.7 Hz), released after 0.13 of a period.
+    p = 0.05
+    m, release, deflection, omega = plucked(210e9, 7850.0, (0.5, 0.02, 0.002), p, 0.134, 1.25)
     res = fd.simulate(m, scheme=scheme)
     t, z, energy = res.time.values, res["tip.uz"].values, res["energy.total"].values
     held, free = t < release, t > release
@@ -961,7 +963,7 @@ def test_a_load_switched_off_mid_run_releases_the_structure_there(scheme):
     # 97 % of the static shape's deflection and the higher ones ring about it.
     assert z[free].max() > 0.9 * deflection
     strain = energy[0]
-    np.testing.assert_allclose(strain, 0.5 * 0.05 * deflection, rtol=1e-4)
+    np.testing.assert_allclose(strain, 0.5 * p * deflection, rtol=1e-4)
     if scheme == "ep":
         # EP keeps the strain energy it was released with, to the Newton tolerance.
         np.testing.assert_allclose(energy[free], strain, rtol=1e-6)
@@ -975,5 +977,15 @@ def test_a_load_switched_off_mid_run_releases_the_structure_there(scheme):
     assert z[half] == pytest.approx(deflection, rel=0.1)
 
 
-def omega_of_strip():
-    return plucked_strip(0.02, 1.0)[2]
+@pytest.mark.parametrize("scheme", ["ed", "ep"])
+def test_a_microstructure_runs_with_the_default_steps(scheme):
+    # A silicon cantilever 100 µm × 20 µm × 2 µm (275 kHz) plucked: its steps go below
+    # 1e-9 s, the smallest step the default dt's millionth allowed, where both schemes
+    # stopped; the smallest step is now a millionth of a run shorter than dt.
+    p = 1e-7
+    m, release, deflection, _ = plucked(169e9, 2330.0, (100e-6, 20e-6, 2e-6), p, 0.5, 1.0)
+    res = fd.simulate(m, scheme=scheme)
+    assert res.flexdyn.stats["dt_smallest"] < 1e-9
+    t, z = res.time.values, res["tip.uz"].values
+    np.testing.assert_allclose(z[t < release], -deflection, rtol=1e-3)
+    assert z[t > release].max() > 0.9 * deflection

@@ -634,7 +634,7 @@ class Model:
         """The `simulation:` settings (those given; the rest keep their defaults): analysis,
         scheme ("ed", the default, or "ep"), t_end and dt (s), output_dt (s); fields (record
         the full-field motion for `flexdyn view`/`export`; default: when ≤ 100 MB); step_control
-        ("adaptive", the default, or "fixed") with tolerance (m), dt_min, dt_max, max_growth,
+        ("adaptive", the default, or "fixed") with tolerance (relative), dt_min, dt_max (s), max_growth,
         max_shrink, max_step_halvings; Newton's newton_tol, newton_increment_tol,
         max_newton_iterations, modified_newton; load_steps (static); preload (True: start a dynamic
         run from the static equilibrium at t = 0; False: start the beams unstrained, as given;
