@@ -174,15 +174,26 @@ impl Section {
     }
 }
 
-/// Symmetric and positive definite (Cholesky), with a message saying which.
+/// Symmetric and positive definite (Cholesky), with a message saying which. Judged on the
+/// matrix scaled to a unit diagonal (`aᵢⱼ/√(aᵢᵢaⱼⱼ)`): its entries mix units (N for EA, N·m² for
+/// EI), whose ratio is a radius of gyration squared, so a threshold relative to the largest
+/// entry refused a 0.2 µm thick strip (GJ/EA = 5e-16), a sound section.
 fn check_spd(a: &Mat6, what: &str) -> Result<(), String> {
-    let scale = a.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
-    if !a.iter().flatten().all(|v| v.is_finite()) || scale == 0.0 {
+    if !a.iter().flatten().all(|v| v.is_finite()) || a.iter().flatten().all(|&v| v == 0.0) {
         return Err(format!("{what} matrix must be finite and nonzero"));
     }
+    if let Some(i) = (0..6).find(|&i| a[i][i] <= 0.0) {
+        return Err(format!(
+            "{what} matrix must be positive definite (diagonal entry {} is {:.3e})",
+            i + 1,
+            a[i][i]
+        ));
+    }
+    let unit: [f64; 6] = std::array::from_fn(|i| 1.0 / a[i][i].sqrt());
+    let b: Mat6 = std::array::from_fn(|i| std::array::from_fn(|j| a[i][j] * unit[i] * unit[j]));
     for i in 0..6 {
         for j in 0..i {
-            if (a[i][j] - a[j][i]).abs() > 1e-12 * scale {
+            if (b[i][j] - b[j][i]).abs() > 1e-12 {
                 return Err(format!(
                     "{what} matrix must be symmetric (entry ({}, {}) differs from ({}, {}))",
                     i + 1,
@@ -195,16 +206,16 @@ fn check_spd(a: &Mat6, what: &str) -> Result<(), String> {
     }
     let mut l = [[0.0; 6]; 6];
     for j in 0..6 {
-        let d = a[j][j] - (0..j).map(|k| l[j][k] * l[j][k]).sum::<f64>();
-        if d <= 1e-14 * scale {
+        let d = b[j][j] - (0..j).map(|k| l[j][k] * l[j][k]).sum::<f64>();
+        if d <= 1e-14 {
             return Err(format!(
-                "{what} matrix must be positive definite (pivot {} is {d:.3e})",
+                "{what} matrix must be positive definite (pivot {} is {d:.3e} of its diagonal entry)",
                 j + 1
             ));
         }
         l[j][j] = d.sqrt();
         for i in j + 1..6 {
-            l[i][j] = (a[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>()) / l[j][j];
+            l[i][j] = (b[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>()) / l[j][j];
         }
     }
     Ok(())
@@ -324,5 +335,39 @@ mod tests {
         assert!(Section::from_matrices(k, m)
             .unwrap_err()
             .contains("symmetric"));
+    }
+
+    /// Admissibility does not depend on the unit of length: the sample section shrunk by
+    /// 10⁻³ and 10⁻⁶ (forces ∝ s², bending ∝ s⁴, offsets ∝ s; at 10⁻⁶ its GJ/EA is 6e-16,
+    /// which a threshold relative to the largest entry refused) is as sound, and with
+    /// `i23² > i22·i33` as unsound, at every size.
+    #[test]
+    fn a_sections_admissibility_is_the_same_at_any_size() {
+        for scale in [1.0f64, 1e-3, 1e-6] {
+            let (s2, s4) = (scale * scale, scale.powi(4));
+            let base = sample();
+            let small = SectionProperties {
+                ea: base.ea * s2,
+                ga2: base.ga2 * s2,
+                ga3: base.ga3 * s2,
+                gj: base.gj * s4,
+                ei2: base.ei2 * s4,
+                ei3: base.ei3 * s4,
+                m: base.m * s2,
+                i22: base.i22 * s4,
+                i33: base.i33 * s4,
+                i23: base.i23 * s4,
+                cm_offset: base.cm_offset.map(|c| c * scale),
+                tension_center: base.tension_center.map(|c| c * scale),
+                shear_center: base.shear_center.map(|c| c * scale),
+            };
+            assert!(Section::from_properties(&small).is_ok(), "{scale}");
+            let unsound = SectionProperties {
+                i23: 1.01 * (small.i22 * small.i33).sqrt(),
+                ..small
+            };
+            let e = Section::from_properties(&unsound).unwrap_err();
+            assert!(e.contains("positive definite"), "{scale}: {e}");
+        }
     }
 }
