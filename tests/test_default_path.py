@@ -949,8 +949,8 @@ def plucked(e, rho, size, p, release_periods, run_periods):
 @pytest.mark.parametrize("scheme", ["ed", "ep"])
 def test_a_load_switched_off_mid_run_releases_the_structure_there(scheme):
     # A load that jumps inside a step is carried by its mean over the step: the work balances
-    # but the motion does not (a MEMS cantilever's first EP step ran past its release and on
-    # for two periods, leaving it 29 % of its strain energy). Adaptive steps end on the jump.
+    # but the motion does not (a MEMS cantilever's first EP step ran 1.6 periods past its
+    # release, leaving it 29 % of its strain energy). Adaptive steps end on the jump.
     # A steel strip 0.5 m × 20 mm × 2 mm (6.7 Hz), released after 0.13 of a period.
     p = 0.05
     m, release, deflection, omega = plucked(210e9, 7850.0, (0.5, 0.02, 0.002), p, 0.134, 1.25)
