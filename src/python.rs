@@ -225,7 +225,8 @@ impl PySimulation {
         let t_now = self.sim.state.t;
         let stopped = |e: String| {
             SolverError::new_err(format!(
-                "{e}\nThe run stopped at t = {t_now:.6} s; every completed step was recorded."
+                "{e}\nThe run stopped at t = {} s; every completed step was recorded.",
+                crate::math::seconds::Seconds(t_now)
             ))
         };
         match r {

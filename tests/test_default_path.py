@@ -3,6 +3,7 @@ adaptive steps, default tolerance) — from rest, in any orientation — a step 
 when its forces balance and its joints hold, samples between steps are as accurate as the
 steps, and a run that cannot go on names the real cause."""
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -1008,3 +1009,12 @@ def test_a_structure_steps_alike_at_any_size():
     assert small["steps"] == pytest.approx(large["steps"], rel=0.02)
     assert small["rejected"] <= large["rejected"] + 5
     assert small["factorizations"] <= 1.2 * large["factorizations"] + 10
+
+
+def test_a_microstructures_failure_says_when_in_its_own_time():
+    # Times in messages kept six decimals: a run of microseconds read "t = 0.000002 s".
+    m = plucked(169e9, 2330.0, (100e-6, 20e-6, 2e-6), 1e-7, 0.5, 1.0)[0]
+    m.force("probe", "strip.end", [0, 1e-9, 0], scale="sqrt(2.5e-6 - t)")
+    with pytest.raises(fd.SolverError, match=r"not defined at t = \d\.\d{4}e-6 s") as failure:
+        fd.simulate(m)
+    assert re.search(r"The run stopped at t = \d\.\d{4}e-6 s", str(failure.value))

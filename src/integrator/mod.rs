@@ -147,8 +147,10 @@ impl std::fmt::Display for StepFailure {
             ),
             None => write!(
                 f,
-                "step from t = {:.6} s with h = {:.3e} s failed: {}",
-                self.t, self.h, self.reason
+                "step from t = {} s with h = {:.3e} s failed: {}",
+                crate::math::seconds::Seconds(self.t),
+                self.h,
+                self.reason
             ),
         }
     }

@@ -6,6 +6,7 @@ pub mod default_axes;
 pub mod layout;
 pub mod rotation;
 pub mod scalar;
+pub mod seconds;
 pub mod time_function;
 pub mod vec3;
 pub mod wide;

@@ -3,6 +3,7 @@
 //! blame the step size or a joint row.
 
 use super::System;
+use crate::math::seconds::Seconds;
 use crate::math::time_function::TimeFunction;
 
 impl System {
@@ -172,7 +173,7 @@ fn jump_at(f: &TimeFunction, t: f64) -> Option<String> {
     let jumps = |a: f64, b: f64, smooth: f64| {
         (b - a).abs() > 1e-3 * a.abs().max(b.abs()) + 10.0 * smooth.abs() * hair
     };
-    let at = format!("at t = {t:.6} s");
+    let at = format!("at t = {} s", Seconds(t));
     if jumps(before.v, after.v, before.d.abs().max(after.d.abs())) {
         return Some(format!(
             "jumps {at} (from {:.6e} to {:.6e}): a prescribed position that jumps is an \
@@ -193,8 +194,9 @@ fn jump_at(f: &TimeFunction, t: f64) -> Option<String> {
 }
 
 fn undefined(what: &str, name: &str, t: f64, value: f64, rate: f64) -> String {
+    let t = Seconds(t);
     format!(
-        "{what} `{name}` is not defined at t = {t:.6} s (value {value}, rate {rate}): a function of time must be finite over the whole run (check its expression or table there, or end the run before t = {t:.6} s)"
+        "{what} `{name}` is not defined at t = {t} s (value {value}, rate {rate}): a function of time must be finite over the whole run (check its expression or table there, or end the run before t = {t} s)"
     )
 }
 

@@ -71,7 +71,7 @@ fn check_eta(model: &Model, sl: &SlidingJoint, c: &mut Checker, p: &str, who: &s
     }
     if let Some(Ok(f)) = &drive {
         if let Some((t, eta)) = drive_leaves_beam(f, model.simulation.t_end) {
-            c.err(format!("{p}.drive"), format!("{who}: the prescribed η leaves the beam at t = {t:.6} s (η = {eta:.6}); η must stay in [0, 1] over the whole run"));
+            c.err(format!("{p}.drive"), format!("{who}: the prescribed η leaves the beam at t = {} s (η = {eta:.6}); η must stay in [0, 1] over the whole run", crate::math::seconds::Seconds(t)));
         }
     }
 }
