@@ -4,6 +4,7 @@
 
 use super::System;
 use crate::math::seconds::Seconds;
+use crate::math::time_function::jet::Jet;
 use crate::math::time_function::TimeFunction;
 
 impl System {
@@ -151,14 +152,17 @@ fn leaps(f: &TimeFunction, a: f64, b: f64) -> bool {
     let acceleration = fa.dd.abs().max(fb.dd.abs());
     let rate = fa.d.abs().max(fb.d.abs());
     let rate_leaps = (fb.d - fa.d).abs() > 10.0 * h * acceleration + 1e-6 * rate + 1e-300;
-    value_leaps(f, a, b) || rate_leaps
+    jets_leap(&fa, &fb, h) || rate_leaps
 }
 
 /// Whether `f`'s value moves from `a` to `b` by far more (10×) than its rate and
 /// acceleration at either end allow.
 fn value_leaps(f: &TimeFunction, a: f64, b: f64) -> bool {
-    let (fa, fb) = (f.jet(a), f.jet(b));
-    let h = b - a;
+    jets_leap(&f.jet(a), &f.jet(b), b - a)
+}
+
+/// [`value_leaps`] of the jets at the ends of an interval `h` long.
+fn jets_leap(fa: &Jet, fb: &Jet, h: f64) -> bool {
     let rate = fa.d.abs().max(fb.d.abs());
     let acceleration = fa.dd.abs().max(fb.dd.abs());
     let scale = 1e-9 * fa.v.abs().max(fb.v.abs()).max(1e-300);
