@@ -89,8 +89,7 @@ impl System {
     }
 }
 
-/// Where in `[0, t_end]` `f`'s value jumps, each pinned down by bisection: the first number
-/// at or past the jump.
+/// Where in `[0, t_end]` `f`'s value jumps, each pinned down ([`pin_down`]).
 fn value_jumps(f: &TimeFunction, t_end: f64) -> Vec<f64> {
     if matches!(f, TimeFunction::Constant(_)) || t_end.is_nan() || t_end <= 0.0 {
         return Vec::new();
@@ -99,49 +98,44 @@ fn value_jumps(f: &TimeFunction, t_end: f64) -> Vec<f64> {
     (0..JUMP_GRID)
         .filter(|&k| value_leaps(f, k as f64 * step, (k + 1) as f64 * step))
         .map(|k| {
-            // Halved down to adjacent numbers: a run of microseconds needs its jump to the
-            // last bit, not to 1e-9 s.
-            let (mut a, mut b) = (k as f64 * step, (k + 1) as f64 * step);
-            loop {
-                let m = 0.5 * (a + b);
-                if m <= a || m >= b {
-                    break;
-                } else if value_leaps(f, a, m) {
-                    b = m;
-                } else if value_leaps(f, m, b) {
-                    a = m;
-                } else {
-                    break;
-                }
-            }
-            b
+            pin_down(k as f64 * step, (k + 1) as f64 * step, |a, b| {
+                value_leaps(f, a, b)
+            })
         })
         .collect()
+}
+
+/// The first number at or past the jump that `leaps` sees in `[a, b]`: the interval halved
+/// towards the half that still leaps, down to adjacent numbers (a run of microseconds needs
+/// its jump to the last bit, not to 1e-9 s).
+fn pin_down(mut a: f64, mut b: f64, leaps: impl Fn(f64, f64) -> bool) -> f64 {
+    loop {
+        let m = 0.5 * (a + b);
+        if m <= a || m >= b {
+            return b;
+        } else if leaps(a, m) {
+            b = m;
+        } else if leaps(m, b) {
+            a = m;
+        } else {
+            return b;
+        }
+    }
 }
 
 /// Intervals of the grid [`System::time_function_jumps`] samples a function on.
 pub const JUMP_GRID: usize = 4096;
 
-/// Where in `[0, t_end]` `f` first jumps in value or rate (within round-off of the place).
+/// Where in `[0, t_end]` `f` first jumps in value or rate ([`pin_down`]).
 fn first_jump(f: &TimeFunction, t_end: f64) -> Option<f64> {
     if t_end.is_nan() || t_end <= 0.0 {
         return None;
     }
     let step = t_end / JUMP_GRID as f64;
     let k = (0..JUMP_GRID).find(|&k| leaps(f, k as f64 * step, (k + 1) as f64 * step))?;
-    let (mut a, mut b) = (k as f64 * step, (k + 1) as f64 * step);
-    // Halve towards the half that still leaps, down to round-off of the place.
-    while b - a > 1e-9 * b.abs().max(1.0) {
-        let m = 0.5 * (a + b);
-        if leaps(f, a, m) {
-            b = m;
-        } else if leaps(f, m, b) {
-            a = m;
-        } else {
-            break;
-        }
-    }
-    Some(0.5 * (a + b))
+    Some(pin_down(k as f64 * step, (k + 1) as f64 * step, |a, b| {
+        leaps(f, a, b)
+    }))
 }
 
 /// Whether `f`'s value or rate moves from `a` to `b` by far more (10×) than its rate, or
