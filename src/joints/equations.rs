@@ -601,8 +601,9 @@ pub fn add_translation_columns<const NC: usize>(
                 if b != 0.0 {
                     vals[pos[row * n + col] as usize] += s * b;
                 }
-                if let Some((_, b_f)) = terms.rates {
-                    vals[pos[(row + 1) * n + col] as usize] -= 2.0 * s * b_f[r][node.col + c];
+                let b_f = terms.rates.map_or(0.0, |(_, b_f)| b_f[r][node.col + c]);
+                if b_f != 0.0 {
+                    vals[pos[(row + 1) * n + col] as usize] -= 2.0 * s * b_f;
                 }
             }
         }
